@@ -1,0 +1,162 @@
+//! Gauss–Legendre rules on [-1, 1], [0, 1] and arbitrary intervals.
+//!
+//! Nodes are the roots of the Legendre polynomial P_n, found by Newton's method on the
+//! three-term recurrence from Tricomi's asymptotic initial guesses; weights are
+//! `2 / ((1 - x²) P_n'(x)²)`. For every order 1..=128 the nodes and weights are accurate
+//! to about 1e-15 absolute, and an n-point rule integrates polynomials of degree
+//! `2n - 1` exactly (up to rounding).
+
+use crate::QuadratureError;
+
+/// Largest Gauss–Legendre order this crate builds.
+pub const MAX_ORDER: usize = 128;
+
+/// An n-point Gauss–Legendre rule on [-1, 1], nodes in increasing order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GaussLegendre {
+    nodes: Vec<f64>,
+    weights: Vec<f64>,
+}
+
+impl GaussLegendre {
+    /// Builds the n-point rule on [-1, 1].
+    ///
+    /// # Errors
+    /// [`QuadratureError::OrderOutOfRange`] unless `1 <= n <= MAX_ORDER`.
+    pub fn new(n: usize) -> Result<Self, QuadratureError> {
+        if !(1..=MAX_ORDER).contains(&n) {
+            return Err(QuadratureError::OrderOutOfRange {
+                order: n,
+                min: 1,
+                max: MAX_ORDER,
+            });
+        }
+        let mut nodes = vec![0.0; n];
+        let mut weights = vec![0.0; n];
+        let nf = n as f64;
+        // Roots are symmetric; compute the upper half (including the middle one).
+        for i in 0..n.div_ceil(2) {
+            // Tricomi's initial guess for the (i+1)-th largest root.
+            let theta = std::f64::consts::PI * (4.0 * i as f64 + 3.0) / (4.0 * nf + 2.0);
+            let mut x = (1.0 - (nf - 1.0) / (8.0 * nf * nf * nf)) * theta.cos();
+            let mut dp = 0.0;
+            for _ in 0..100 {
+                let (p, d) = legendre_and_derivative(n, x);
+                dp = d;
+                let dx = p / d;
+                x -= dx;
+                if dx.abs() <= 1e-16 * x.abs().max(1.0) {
+                    let (_, d) = legendre_and_derivative(n, x);
+                    dp = d;
+                    break;
+                }
+            }
+            let w = 2.0 / ((1.0 - x * x) * dp * dp);
+            nodes[n - 1 - i] = x;
+            nodes[i] = -x;
+            weights[n - 1 - i] = w;
+            weights[i] = w;
+        }
+        if n % 2 == 1 {
+            nodes[n / 2] = 0.0;
+        }
+        Ok(Self { nodes, weights })
+    }
+
+    /// Number of points.
+    #[must_use]
+    pub fn order(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Nodes on [-1, 1], increasing.
+    #[must_use]
+    pub fn nodes(&self) -> &[f64] {
+        &self.nodes
+    }
+
+    /// Weights for [-1, 1]; they sum to 2.
+    #[must_use]
+    pub fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+
+    /// The rule mapped affinely to [a, b]: `(points, weights)` with weights summing to
+    /// `b - a`.
+    ///
+    /// # Errors
+    /// [`QuadratureError::NonFiniteInterval`] if `a` or `b` is NaN or infinite.
+    pub fn on_interval(&self, a: f64, b: f64) -> Result<(Vec<f64>, Vec<f64>), QuadratureError> {
+        if !(a.is_finite() && b.is_finite()) {
+            return Err(QuadratureError::NonFiniteInterval { a, b });
+        }
+        let half = 0.5 * (b - a);
+        let mid = 0.5 * (a + b);
+        let points = self.nodes.iter().map(|&x| mid + half * x).collect();
+        let weights = self.weights.iter().map(|&w| half * w).collect();
+        Ok((points, weights))
+    }
+
+    /// The rule on [0, 1]: `(points, weights)` with weights summing to 1.
+    #[must_use]
+    pub fn unit(&self) -> (Vec<f64>, Vec<f64>) {
+        let points = self.nodes.iter().map(|&x| 0.5 * (x + 1.0)).collect();
+        let weights = self.weights.iter().map(|&w| 0.5 * w).collect();
+        (points, weights)
+    }
+
+    /// Integrates `f` over [a, b] with this rule.
+    pub fn integrate(&self, a: f64, b: f64, mut f: impl FnMut(f64) -> f64) -> f64 {
+        let half = 0.5 * (b - a);
+        let mid = 0.5 * (a + b);
+        let sum: f64 = self
+            .nodes
+            .iter()
+            .zip(&self.weights)
+            .map(|(&x, &w)| w * f(mid + half * x))
+            .sum();
+        half * sum
+    }
+}
+
+/// `(P_n(x), P_n'(x))` by the three-term recurrence; valid for |x| < 1.
+fn legendre_and_derivative(n: usize, x: f64) -> (f64, f64) {
+    let mut p0 = 1.0;
+    let mut p1 = x;
+    if n == 0 {
+        return (1.0, 0.0);
+    }
+    for k in 2..=n {
+        let kf = k as f64;
+        let p2 = ((2.0 * kf - 1.0) * x * p1 - (kf - 1.0) * p0) / kf;
+        p0 = p1;
+        p1 = p2;
+    }
+    let nf = n as f64;
+    let dp = nf * (x * p1 - p0) / (x * x - 1.0);
+    (p1, dp)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn weights_sum_to_two_and_monomials_exact() {
+        for n in [1, 2, 3, 7, 16, 33, 64, 128] {
+            let g = GaussLegendre::new(n).unwrap();
+            let s: f64 = g.weights().iter().sum();
+            assert!((s - 2.0).abs() < 1e-13, "n={n} sum={s}");
+            // x^(2n-2) integrates to 2/(2n-1) on [-1, 1]; check on [0,1] to avoid cancellation.
+            let d = 2 * n - 1;
+            let v = g.integrate(0.0, 1.0, |x| x.powi(d as i32));
+            assert!((v - 1.0 / (d as f64 + 1.0)).abs() < 1e-13, "n={n} v={v}");
+        }
+    }
+
+    #[test]
+    fn rejects_bad_orders() {
+        assert!(GaussLegendre::new(0).is_err());
+        assert!(GaussLegendre::new(MAX_ORDER + 1).is_err());
+    }
+}

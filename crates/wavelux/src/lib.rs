@@ -1,0 +1,39 @@
+//! wavelux: hierarchical and wavelet global illumination.
+//!
+//! This facade re-exports the member crates under short names so that an application
+//! can depend on `wavelux` alone. Each member crate can also be used on its own.
+
+pub use wavelux_geometry as geometry;
+pub use wavelux_linear as linear;
+pub use wavelux_mra as mra;
+pub use wavelux_param as param;
+pub use wavelux_quadrature as quadrature;
+pub use wavelux_scene as scene;
+
+/// The member crates, their one-line job, in dependency order (lowest first).
+pub const CRATES: &[(&str, &str)] = &[
+    (
+        "wavelux-mra",
+        "1D MRAs (Haar, multiwavelets, CDV), fast transforms, tensor products",
+    ),
+    (
+        "wavelux-quadrature",
+        "Gauss, tensor, singular, masked, triangle, disk and adaptive rules",
+    ),
+    (
+        "wavelux-linear",
+        "matrix-free operators and iterative solvers with convergence records",
+    ),
+    (
+        "wavelux-param",
+        "parametrized surfaces, equal-area maps, direction maps",
+    ),
+    (
+        "wavelux-geometry",
+        "exact primitives, trims, ray intersection, BVH, form factors",
+    ),
+    (
+        "wavelux-scene",
+        "scene model, glTF and native loaders, built-in scenes",
+    ),
+];

@@ -1,0 +1,4 @@
+//! Cross-crate ground truth for wavelux: one integration-test binary, one module per
+//! topic.
+
+mod workspace;

@@ -1,0 +1,27 @@
+//! The registry of reproductions: one module per reproduction, each exposing `run`.
+//!
+//! A registration quotes where in the seed papers the reproduced result lives; the
+//! paper's numbers are quoted inside each module next to their source, and ours are
+//! always computed by `run` in the same invocation.
+
+use crate::report::Report;
+use crate::reproduce::Ctx;
+
+/// One registered reproduction.
+pub struct Reproduction {
+    /// Stable identifier used by `--only` and as the report file name.
+    pub id: &'static str,
+    /// Paper and section/table/figure reproduced, e.g. "Ziegler §3.1.4, Fig. 3.5".
+    pub source: &'static str,
+    /// Seed file under `../shared/seeds/`.
+    pub seed_file: &'static str,
+    /// One-line title.
+    pub title: &'static str,
+    /// Computes our numbers and the report.
+    pub run: fn(&Ctx) -> anyhow::Result<Report>,
+}
+
+/// Every registered reproduction, in report order.
+pub fn all() -> Vec<Reproduction> {
+    vec![]
+}
