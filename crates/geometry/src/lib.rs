@@ -1,1 +1,41 @@
-//! wavelux-geometry: see the crate description; being built (this placeholder is replaced by the crate's modules).
+//! wavelux-geometry: exact primitives, trims, ray intersection, BVH visibility and
+//! analytic form factors.
+//!
+//! - [`primitive`]: triangles, parallelograms, planar complex polygons (segment/arc
+//!   boundaries, holes), trimmed analytic patches, bicubic Bézier patches; [`Aabb`],
+//!   [`Ray`], [`Hit`].
+//! - [`trim`]: trim loops and the slab decomposition of VirtualMesh §4.2 / Fig. 6.
+//! - [`surface`]: analytic surfaces (quadrics, torus) with unit-square parametrizations.
+//! - [`bezier`]: bicubic Bézier evaluation and subdivision.
+
+pub mod bezier;
+pub mod primitive;
+pub mod surface;
+pub mod trim;
+
+pub use primitive::{
+    Aabb, BezierPatch, ComplexPolygon, Hit, Parallelogram, PlaneFrame, PrimId, Primitive, Ray,
+    Triangle, TrimmedPatch,
+};
+pub use surface::{Frame, Surface};
+pub use trim::{Edge2, TrimLoop, TrimRegion};
+
+/// Errors of geometric construction and queries.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum GeometryError {
+    /// An input contained NaN or an infinity (the payload names the input).
+    #[error("non-finite input: {0}")]
+    NonFinite(&'static str),
+    /// The input is geometrically degenerate (the payload says how).
+    #[error("degenerate geometry: {0}")]
+    Degenerate(&'static str),
+    /// An index was out of range.
+    #[error("index {index} out of range (len {len})")]
+    OutOfRange {
+        /// Offending index.
+        index: usize,
+        /// Collection length.
+        len: usize,
+    },
+}
