@@ -2,14 +2,23 @@
 //!
 //! Every coupling coefficient of every method (Ziegler §3.3.3, VirtualMesh §5.2,
 //! Glossy §3.3) is a quadrature over mapped unit squares. This crate owns the rules:
-//! Gauss–Legendre rules on intervals ([`gauss`]), and the higher-dimensional, singular,
-//! masked and adaptive rules built on them.
+//!
+//! - [`gauss`]: Gauss–Legendre rules of order 1..=128 on intervals;
+//! - [`jacobi`]: Gauss–Jacobi rules (weight `(1-x)^α (1+x)^β`), used for triangles,
+//!   the disk and endpoint singularities, plus the Gamma/Beta functions they need;
+//! - [`rule`]: [`RuleNd`], a plain-data point/weight rule in `d` dimensions, and
+//!   tensor-product rules on `[0,1]^d`, `d <= 6` (form factors are 4D, glossy
+//!   transport 6D: Glossy §3.3);
 
 pub mod gauss;
+pub mod jacobi;
+pub mod rule;
 
 pub use gauss::GaussLegendre;
+pub use jacobi::GaussJacobi;
+pub use rule::RuleNd;
 
-/// Errors raised when a rule cannot be built as requested.
+/// Errors raised when a rule cannot be built or applied as requested.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum QuadratureError {
@@ -31,4 +40,51 @@ pub enum QuadratureError {
         /// Right endpoint.
         b: f64,
     },
+    /// The requested dimension is outside the supported range.
+    #[error("dimension {dim} is outside the supported range {min}..={max}")]
+    DimensionOutOfRange {
+        /// The dimension that was asked for.
+        dim: usize,
+        /// Smallest supported dimension.
+        min: usize,
+        /// Largest supported dimension.
+        max: usize,
+    },
+    /// Slices that must have matching lengths do not.
+    #[error("length mismatch: expected {expected}, got {got}")]
+    LengthMismatch {
+        /// The length that was required.
+        expected: usize,
+        /// The length that was given.
+        got: usize,
+    },
+    /// A real parameter is NaN, infinite or outside its admissible range.
+    #[error("parameter `{name}` = {value} is invalid: {reason}")]
+    InvalidParameter {
+        /// Name of the parameter.
+        name: &'static str,
+        /// The offending value.
+        value: f64,
+        /// What was expected.
+        reason: &'static str,
+    },
+    /// A polygon or trim region is malformed.
+    #[error("invalid region: {0}")]
+    InvalidRegion(&'static str),
+    /// The integrand returned NaN or an infinity at a quadrature point.
+    #[error("the integrand returned a non-finite value at a quadrature point")]
+    NonFiniteIntegrand,
+}
+
+/// Checks that `x` is finite, naming it in the error otherwise.
+pub(crate) fn check_finite(name: &'static str, x: f64) -> Result<f64, QuadratureError> {
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(QuadratureError::InvalidParameter {
+            name,
+            value: x,
+            reason: "must be finite",
+        })
+    }
 }
