@@ -1,1 +1,27 @@
-//! wavelux-param: see the crate description; being built (this placeholder is replaced by the crate's modules).
+//! wavelux-param: parametrized surfaces, equal-area maps onto the unit square, direction
+//! maps and minimal enclosing parallelograms.
+//!
+//! This crate implements the geometric half of the virtual mesh (VirtualMesh §3):
+//!
+//! * [`Parametrization`] — a map from [0, 1]² onto a surface patch with its inverse,
+//!   Jacobian (area element), area and bounds; every surface offers an equal-area
+//!   (constant-Jacobian, "energy-preserving", §3.1 eq. (1)) map and its natural map
+//!   side by side ([`ParamKind`]).
+//! * Closed-form equal-area maps: [`Parallelogram`] (the affine Λ of §3.3),
+//!   [`Cylinder`], [`Cone`] `(θ, φ²)`, [`Sphere`] `(θ, sin φ)` (Appendix A.1).
+//!
+//! All lengths are in world units and all maps are scale covariant (tested for sizes
+//! 1e-4 … 1e4).
+
+mod error;
+mod frame;
+mod numeric;
+mod parallelogram;
+mod quadrics;
+mod surface;
+
+pub use error::ParamError;
+pub use frame::{Aabb, Frame, SurfacePoint};
+pub use parallelogram::{Parallelogram, Parallelogram2};
+pub use quadrics::{Cone, Cylinder, Sphere};
+pub use surface::{ParamKind, Parametrization, SurfaceShape};
