@@ -9,14 +9,21 @@
 //! - [`rule`]: [`RuleNd`], a plain-data point/weight rule in `d` dimensions, and
 //!   tensor-product rules on `[0,1]^d`, `d <= 6` (form factors are 4D, glossy
 //!   transport 6D: Glossy §3.3);
+//! - [`singular`]: Duffy / Sauter–Schwab rules for the weakly singular `1/r²` kernel
+//!   between unit squares that coincide, share an edge or share a vertex, and 2D
+//!   Duffy rules for point singularities (Ziegler §3.3.3 avoided these; we do not);
+//! - [`simplex`]: Stroud conical-product rules on triangles and polar rules on disks;
 
 pub mod gauss;
 pub mod jacobi;
 pub mod rule;
+pub mod simplex;
+pub mod singular;
 
 pub use gauss::GaussLegendre;
 pub use jacobi::GaussJacobi;
 pub use rule::RuleNd;
+pub use singular::{Corner, SquarePair};
 
 /// Errors raised when a rule cannot be built or applied as requested.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -68,6 +75,9 @@ pub enum QuadratureError {
         /// What was expected.
         reason: &'static str,
     },
+    /// Two corners that were required to span a common edge are not adjacent.
+    #[error("corners {0:?} and {1:?} of the unit square are not adjacent")]
+    CornersNotAdjacent(singular::Corner, singular::Corner),
     /// A polygon or trim region is malformed.
     #[error("invalid region: {0}")]
     InvalidRegion(&'static str),
