@@ -229,7 +229,6 @@ impl Interval {
             hi: c.iter().copied().fold(f64::NEG_INFINITY, f64::max),
         }
     }
-    #[allow(dead_code)]
     pub fn add(self, o: Self) -> Self {
         Self {
             lo: self.lo + o.lo,
@@ -290,7 +289,6 @@ pub(crate) fn unwrap_angle(a: f64, a0: f64, a1: f64) -> f64 {
 
 /// `sqrt(1 - w²)` without cancellation near |w| = 1.
 #[inline]
-#[allow(dead_code)]
 pub(crate) fn cos_from_sin(w: f64) -> f64 {
     ((1.0 - w) * (1.0 + w)).max(0.0).sqrt()
 }

@@ -18,10 +18,14 @@ mod frame;
 mod numeric;
 mod parallelogram;
 mod quadrics;
+mod spheroid;
 mod surface;
+mod torus;
 
 pub use error::ParamError;
 pub use frame::{Aabb, Frame, SurfacePoint};
 pub use parallelogram::{Parallelogram, Parallelogram2};
 pub use quadrics::{Cone, Cylinder, Sphere};
+pub use spheroid::Spheroid;
 pub use surface::{ParamKind, Parametrization, SurfaceShape};
+pub use torus::Torus;

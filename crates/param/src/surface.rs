@@ -80,6 +80,10 @@ pub enum SurfaceShape<'a> {
     Cone(&'a crate::Cone),
     /// Sphere patch.
     Sphere(&'a crate::Sphere),
+    /// Prolate or oblate spheroid patch.
+    Spheroid(&'a crate::Spheroid),
+    /// Ring torus patch.
+    Torus(&'a crate::Torus),
 }
 
 /// Linear map of `s ∈ [0, 1]` onto `[a, b]`.
