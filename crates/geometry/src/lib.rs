@@ -6,16 +6,25 @@
 //!   [`Ray`], [`Hit`].
 //! - [`trim`]: trim loops and the slab decomposition of VirtualMesh §4.2 / Fig. 6.
 //! - [`surface`]: analytic surfaces (quadrics, torus) with unit-square parametrizations.
+//! - [`accel`]: the obvhs BVH over all primitives: closest hit, occlusion, batches.
+//! - [`formfactor`]: analytic form factors (Lambert point-to-polygon, contour integral
+//!   polygon-to-polygon, catalog configurations).
 //! - [`bezier`]: bicubic Bézier evaluation and subdivision.
+//! - [`intersect`]: exact ray intersection for every primitive; [`poly`]: robust polynomial roots.
 
+pub mod accel;
 pub mod bezier;
+pub mod formfactor;
+pub mod intersect;
+pub mod poly;
 pub mod primitive;
 pub mod surface;
 pub mod trim;
 
+pub use accel::{Accel, OcclusionQuery};
 pub use primitive::{
-    Aabb, BezierPatch, ComplexPolygon, Hit, Parallelogram, PlaneFrame, PrimId, Primitive, Ray,
-    Triangle, TrimmedPatch,
+    Aabb, BezierPatch, ComplexPolygon, Hit, Parallelogram, PatchSurface, PlaneFrame, PrimId,
+    Primitive, Ray, Triangle, TrimmedPatch,
 };
 pub use surface::{Frame, Surface};
 pub use trim::{Edge2, TrimLoop, TrimRegion};

@@ -23,6 +23,8 @@ use crate::GeometryError;
 use crate::bezier;
 use crate::surface::Surface;
 use crate::trim::TrimRegion;
+use std::sync::Arc;
+use wavelux_param::Parametrization;
 
 /// Index of a primitive inside a [`crate::Accel`] (its position in the slice it was built from).
 pub type PrimId = u32;
@@ -480,12 +482,73 @@ impl ComplexPolygon {
     }
 }
 
+/// The surface under a [`TrimmedPatch`]: any `wavelux-param` parametrization (its own
+/// `(u, v)` map and inverse are used), or one of this crate's analytic [`Surface`]s
+/// (spheroid and torus until `wavelux-param` provides them).
+#[derive(Debug, Clone)]
+pub enum PatchSurface {
+    /// A `wavelux-param` surface patch (intersection dispatches on its `shape()`).
+    Param(Arc<dyn Parametrization>),
+    /// An analytic surface of this crate.
+    Analytic(Surface),
+}
+
+impl PatchSurface {
+    /// Point at `uv`.
+    pub fn eval(&self, uv: DVec2) -> DVec3 {
+        match self {
+            PatchSurface::Param(p) => p.position(uv),
+            PatchSurface::Analytic(s) => s.eval(uv),
+        }
+    }
+
+    /// Unit normal at `uv` (the surface's orientation: outward for closed surfaces).
+    pub fn normal(&self, uv: DVec2) -> DVec3 {
+        match self {
+            PatchSurface::Param(p) => p.normal(uv),
+            PatchSurface::Analytic(s) => s.normal(uv),
+        }
+    }
+
+    /// Bounding box of the untrimmed surface patch.
+    pub fn aabb(&self) -> Aabb {
+        match self {
+            PatchSurface::Param(p) => {
+                let b = p.bounds();
+                Aabb {
+                    min: b.min,
+                    max: b.max,
+                }
+            }
+            PatchSurface::Analytic(s) => s.aabb(),
+        }
+    }
+
+    /// Area of the untrimmed patch.
+    pub fn area(&self) -> f64 {
+        match self {
+            PatchSurface::Param(p) => p.area(),
+            PatchSurface::Analytic(s) => s.area(),
+        }
+    }
+}
+
+impl PartialEq for PatchSurface {
+    fn eq(&self, other: &Self) -> bool {
+        match (self, other) {
+            (PatchSurface::Param(a), PatchSurface::Param(b)) => Arc::ptr_eq(a, b),
+            (PatchSurface::Analytic(a), PatchSurface::Analytic(b)) => a == b,
+            _ => false,
+        }
+    }
+}
+
 /// A parametric surface restricted to a trim region of its unit-square parameter
 /// domain (VirtualMesh §3–4: trimmed surfaces; trim loops are segments and arcs).
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrimmedPatch {
     /// The untrimmed surface.
-    pub surface: Surface,
+    pub surface: PatchSurface,
     /// Kept part of `[0,1]²` (`None` = the whole square).
     pub trim: Option<TrimRegion>,
 }
@@ -495,7 +558,10 @@ impl TrimmedPatch {
     ///
     /// # Errors
     /// Trim region outside the unit square or of non-positive area.
-    pub fn new(surface: Surface, trim: Option<TrimRegion>) -> Result<TrimmedPatch, GeometryError> {
+    pub fn new(
+        surface: PatchSurface,
+        trim: Option<TrimRegion>,
+    ) -> Result<TrimmedPatch, GeometryError> {
         if let Some(t) = &trim {
             let (lo, hi) = t.bounds();
             if lo.min_element() < -1e-12 || hi.max_element() > 1.0 + 1e-12 {
@@ -512,11 +578,36 @@ impl TrimmedPatch {
         Ok(TrimmedPatch { surface, trim })
     }
 
-    /// True if `uv` is kept by the trim.
-    pub fn keeps(&self, uv: DVec2) -> bool {
+    /// Patch on a `wavelux-param` surface.
+    ///
+    /// # Errors
+    /// As [`TrimmedPatch::new`].
+    pub fn on_param(
+        surface: Arc<dyn Parametrization>,
+        trim: Option<TrimRegion>,
+    ) -> Result<TrimmedPatch, GeometryError> {
+        TrimmedPatch::new(PatchSurface::Param(surface), trim)
+    }
+
+    /// Patch on an analytic [`Surface`].
+    ///
+    /// # Errors
+    /// As [`TrimmedPatch::new`].
+    pub fn on_analytic(
+        surface: Surface,
+        trim: Option<TrimRegion>,
+    ) -> Result<TrimmedPatch, GeometryError> {
+        TrimmedPatch::new(PatchSurface::Analytic(surface), trim)
+    }
+
+    /// True if `uv` is kept by the trim (and lies in `[0,1]²`, to `tol`).
+    pub fn keeps(&self, uv: DVec2, tol: f64) -> bool {
+        if !(uv.x >= -tol && uv.x <= 1.0 + tol && uv.y >= -tol && uv.y <= 1.0 + tol) {
+            return false;
+        }
         match &self.trim {
-            None => (0.0..=1.0).contains(&uv.x) && (0.0..=1.0).contains(&uv.y),
-            Some(t) => t.contains(uv),
+            None => true,
+            Some(t) => t.contains_tol(uv, tol),
         }
     }
 
@@ -585,12 +676,12 @@ pub enum Primitive {
     Triangle(Triangle),
     /// A parallelogram.
     Parallelogram(Parallelogram),
-    /// A planar region with segment/arc boundaries and holes.
-    Polygon(ComplexPolygon),
-    /// A trimmed analytic surface patch.
-    Trimmed(TrimmedPatch),
-    /// A bicubic Bézier patch.
-    Bezier(BezierPatch),
+    /// A planar region with segment/arc boundaries and holes (boxed: keeps the enum small).
+    Polygon(Box<ComplexPolygon>),
+    /// A trimmed surface patch (boxed).
+    Trimmed(Box<TrimmedPatch>),
+    /// A bicubic Bézier patch (boxed).
+    Bezier(Box<BezierPatch>),
 }
 
 impl Primitive {
@@ -629,16 +720,16 @@ impl From<Parallelogram> for Primitive {
 }
 impl From<ComplexPolygon> for Primitive {
     fn from(p: ComplexPolygon) -> Self {
-        Primitive::Polygon(p)
+        Primitive::Polygon(Box::new(p))
     }
 }
 impl From<TrimmedPatch> for Primitive {
     fn from(p: TrimmedPatch) -> Self {
-        Primitive::Trimmed(p)
+        Primitive::Trimmed(Box::new(p))
     }
 }
 impl From<BezierPatch> for Primitive {
     fn from(p: BezierPatch) -> Self {
-        Primitive::Bezier(p)
+        Primitive::Bezier(Box::new(p))
     }
 }

@@ -165,20 +165,39 @@ impl Edge2 {
         }
     }
 
-    /// Signed angle subtended at `p` (brute-force winding helper; arcs are subdivided).
+    /// Signed angle swept by `x − p` as `x` runs along the edge, exactly: the chord's
+    /// subtended angle plus `±2π` when `p` lies in the circular segment between an arc
+    /// and its chord (brute-force winding reference; not used by the slab queries).
     pub fn subtended_angle(&self, p: DVec2) -> f64 {
-        let n = match self {
-            Edge2::Segment { .. } => 1,
-            Edge2::Arc { sweep, .. } => ((sweep.abs() / (PI / 64.0)).ceil() as usize).max(1),
-        };
-        let mut sum = 0.0;
-        let mut prev = self.point(0.0) - p;
-        for i in 1..=n {
-            let cur = self.point(i as f64 / n as f64) - p;
-            sum += prev.perp_dot(cur).atan2(prev.dot(cur));
-            prev = cur;
+        let a = self.start() - p;
+        let b = self.end() - p;
+        let chord = a.perp_dot(b).atan2(a.dot(b));
+        match *self {
+            Edge2::Segment { .. } => chord,
+            Edge2::Arc {
+                center,
+                radius,
+                start,
+                sweep,
+            } => {
+                if (p - center).length() >= radius {
+                    return chord;
+                }
+                let (s0, s1) = (self.start(), self.end());
+                let mid = center + radius * DVec2::from_angle(start + 0.5 * sweep);
+                let in_segment = if (s1 - s0).length() <= 1e-15 * radius {
+                    true
+                } else {
+                    let side = |q: DVec2| (s1 - s0).perp_dot(q - s0);
+                    side(p) * side(mid) > 0.0
+                };
+                if in_segment {
+                    chord + TAU * sweep.signum()
+                } else {
+                    chord
+                }
+            }
         }
-        sum
     }
 }
 
@@ -469,6 +488,17 @@ impl TrimRegion {
     /// True if `p` is inside (non-zero winding).
     pub fn contains(&self, p: DVec2) -> bool {
         self.winding(p) != 0
+    }
+
+    /// [`TrimRegion::contains`] dilated by `tol` along the axes: also true if one of the
+    /// four points `p ± tol·e_x`, `p ± tol·e_y` is inside. Used so that abutting regions
+    /// leave no crack for a ray through their common boundary.
+    pub fn contains_tol(&self, p: DVec2, tol: f64) -> bool {
+        self.contains(p)
+            || (tol > 0.0
+                && [DVec2::X, DVec2::NEG_X, DVec2::Y, DVec2::NEG_Y]
+                    .iter()
+                    .any(|d| self.contains(p + tol * *d)))
     }
 
     /// Brute-force winding number (sum over loops of subtended angles), `O(n)`; for tests.

@@ -1,0 +1,373 @@
+//! One acceleration structure over all primitives (obvhs compressed wide BVH, CWBVH):
+//! closest hit, occlusion between two points (Ziegler §2.4: the visibility term of the
+//! kernel), batched over slices of queries and parallel with rayon.
+//!
+//! obvhs builds and traverses in f32; we hand it conservatively padded f32 boxes of
+//! every primitive and do every primitive test exactly in f64 in the traversal
+//! callbacks (triangles with the watertight test, everything else through
+//! [`Primitive::intersect`]). Triangles are stored in BVH leaf order for locality.
+//!
+//! # Epsilons (scale aware)
+//! With `D` the diagonal of the scene's bounding box:
+//! - every occlusion query ignores hits within `EPS_REL · D` (1e-9 D) of either endpoint;
+//! - primitives named in `ignore` (the surfaces the endpoints lie on) are skipped when
+//!   planar (they cannot occlude a segment that starts on them) and, when curved, only
+//!   hits within `SELF_EPS_REL · D` (1e-6 D) of an endpoint are ignored, so a torus or
+//!   a Bézier patch still shadows itself;
+//! - BVH boxes are padded by `1e-5 D + 1e-6 max|x|` to absorb the f32 traversal.
+//!
+//! Planar primitives are dilated by 1e-9 of their size and triangles are watertight, so
+//! rays through shared edges and corners do not leak.
+
+use std::time::Duration;
+
+use glam::{DVec3, Vec3A};
+use obvhs::BvhBuildParams;
+use obvhs::aabb::Aabb as FAabb;
+use obvhs::cwbvh::CwBvh;
+use obvhs::cwbvh::builder::build_cwbvh;
+use obvhs::ray::{Ray as FRay, RayHit};
+use rayon::prelude::*;
+
+use crate::GeometryError;
+use crate::intersect::triangle_raw;
+use crate::primitive::{Aabb, Hit, PrimId, Primitive, Ray, Triangle};
+
+/// Relative end-point epsilon of occlusion queries (times the scene diagonal).
+pub const EPS_REL: f64 = 1e-9;
+/// Relative self-hit epsilon for curved primitives named in `ignore`.
+pub const SELF_EPS_REL: f64 = 1e-6;
+
+#[derive(Debug, Clone, Copy)]
+enum Slot {
+    Tri([DVec3; 3], PrimId),
+    Other(PrimId),
+}
+
+/// A two-point visibility query: is the open segment `p → q` blocked?
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OcclusionQuery {
+    /// First end point.
+    pub p: DVec3,
+    /// Second end point.
+    pub q: DVec3,
+    /// Primitives the end points lie on (see the module docs).
+    pub ignore: [Option<PrimId>; 2],
+}
+
+/// BVH over a set of primitives.
+#[derive(Debug)]
+pub struct Accel {
+    prims: Vec<Primitive>,
+    planar: Vec<bool>,
+    bvh: Option<CwBvh>,
+    slots: Vec<Slot>,
+    bounds: Aabb,
+    diag: f64,
+}
+
+fn to_f32_box(b: &Aabb, pad: f64) -> FAabb {
+    let lo = b.min - DVec3::splat(pad);
+    let hi = b.max + DVec3::splat(pad);
+    FAabb::new(
+        Vec3A::new(lo.x as f32, lo.y as f32, lo.z as f32),
+        Vec3A::new(hi.x as f32, hi.y as f32, hi.z as f32),
+    )
+}
+
+impl Accel {
+    /// Builds the BVH (obvhs PLOC + reinsertion, collapsed to CWBVH, `medium_build` preset).
+    ///
+    /// # Errors
+    /// [`GeometryError::NonFinite`] if a primitive has a non-finite bounding box, or
+    /// [`GeometryError::OutOfRange`] for more than `u32::MAX − 1` primitives.
+    pub fn build(prims: Vec<Primitive>) -> Result<Accel, GeometryError> {
+        Accel::build_with(prims, BvhBuildParams::medium_build())
+    }
+
+    /// Builds a triangle-only accelerator.
+    ///
+    /// # Errors
+    /// As [`Accel::build`].
+    pub fn from_triangles(tris: &[Triangle]) -> Result<Accel, GeometryError> {
+        Accel::build(tris.iter().map(|t| Primitive::Triangle(*t)).collect())
+    }
+
+    /// Builds with explicit obvhs build parameters.
+    ///
+    /// # Errors
+    /// As [`Accel::build`].
+    pub fn build_with(
+        prims: Vec<Primitive>,
+        params: BvhBuildParams,
+    ) -> Result<Accel, GeometryError> {
+        if prims.len() >= u32::MAX as usize {
+            return Err(GeometryError::OutOfRange {
+                index: prims.len(),
+                len: u32::MAX as usize - 1,
+            });
+        }
+        let boxes: Vec<Aabb> = prims.par_iter().map(Primitive::aabb).collect();
+        let mut bounds = Aabb::EMPTY;
+        for b in &boxes {
+            if !b.min.is_finite() || !b.max.is_finite() {
+                return Err(GeometryError::NonFinite("primitive bounding box"));
+            }
+            bounds = bounds.union(b);
+        }
+        let diag = bounds.diagonal().length();
+        let planar: Vec<bool> = prims.iter().map(Primitive::is_planar).collect();
+        if prims.is_empty() {
+            return Ok(Accel {
+                prims,
+                planar,
+                bvh: None,
+                slots: Vec::new(),
+                bounds,
+                diag,
+            });
+        }
+        let maxc = bounds.min.abs().max(bounds.max.abs()).max_element();
+        let pad = 1e-5 * diag + 1e-6 * maxc;
+        let fboxes: Vec<FAabb> = boxes.iter().map(|b| to_f32_box(b, pad)).collect();
+        let bvh = build_cwbvh(&fboxes, params, &mut Duration::default());
+        let slots = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| match &prims[i as usize] {
+                Primitive::Triangle(t) => Slot::Tri(t.v, i),
+                _ => Slot::Other(i),
+            })
+            .collect();
+        Ok(Accel {
+            prims,
+            planar,
+            bvh: Some(bvh),
+            slots,
+            bounds,
+            diag,
+        })
+    }
+
+    /// Number of primitives.
+    pub fn len(&self) -> usize {
+        self.prims.len()
+    }
+
+    /// True if there are no primitives.
+    pub fn is_empty(&self) -> bool {
+        self.prims.is_empty()
+    }
+
+    /// The primitives, indexed by [`PrimId`].
+    pub fn primitives(&self) -> &[Primitive] {
+        &self.prims
+    }
+
+    /// Scene bounding box.
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// End-point epsilon of occlusion queries, `EPS_REL ·` scene diagonal.
+    pub fn eps(&self) -> f64 {
+        EPS_REL * self.diag
+    }
+
+    fn fray(ray: &Ray, tmax: f64) -> FRay {
+        let o = ray.origin;
+        let d = ray.dir;
+        FRay::new(
+            Vec3A::new(o.x as f32, o.y as f32, o.z as f32),
+            Vec3A::new(d.x as f32, d.y as f32, d.z as f32),
+            0.0,
+            if tmax.is_finite() {
+                (tmax * (1.0 + 1e-5)) as f32 + 1e-30
+            } else {
+                f32::INFINITY
+            },
+        )
+    }
+
+    /// Closest hit with `t ∈ [tmin, tmax]` (use `tmax = f64::INFINITY` for an unbounded ray).
+    pub fn closest_hit(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        let bvh = self.bvh.as_ref()?;
+        let mut best: Option<Hit> = None;
+        let mut best_t = tmax;
+        let mut rh = RayHit::none();
+        let slack = 1e-5 * self.diag;
+        bvh.ray_traverse(Self::fray(ray, tmax), &mut rh, |_, slot| {
+            let hit = match self.slots[slot] {
+                Slot::Tri(v, id) => triangle_raw(&v, ray, tmin, best_t).map(|(t, b, c)| {
+                    let tri = Triangle { v };
+                    let mut h = tri.intersect_from(ray, t, b, c);
+                    h.prim = id;
+                    h
+                }),
+                Slot::Other(id) => {
+                    self.prims[id as usize]
+                        .intersect(ray, tmin, best_t)
+                        .map(|mut h| {
+                            h.prim = id;
+                            h
+                        })
+                }
+            };
+            match hit {
+                Some(h) if h.t < best_t || best.is_none() => {
+                    best_t = h.t;
+                    best = Some(h);
+                    (h.t + slack) as f32
+                }
+                _ => f32::INFINITY,
+            }
+        });
+        best
+    }
+
+    /// Is the open segment `p → q` blocked by any primitive (see the module docs for
+    /// epsilons and `ignore`)? Coincident end points are never occluded.
+    pub fn occluded(&self, p: DVec3, q: DVec3, ignore: [Option<PrimId>; 2]) -> bool {
+        let Some(bvh) = self.bvh.as_ref() else {
+            return false;
+        };
+        let len = (q - p).length();
+        if len == 0.0 || !len.is_finite() {
+            return false;
+        }
+        let ray = Ray {
+            origin: p,
+            dir: (q - p) / len,
+        };
+        let eps = EPS_REL * self.diag;
+        let self_eps = SELF_EPS_REL * self.diag;
+        let (t0, t1) = (eps, len - eps);
+        if t0 >= t1 {
+            return false;
+        }
+        let is_ignored = |id: PrimId| ignore[0] == Some(id) || ignore[1] == Some(id);
+        !bvh.ray_traverse_miss(Self::fray(&ray, len), |_, slot| {
+            let blocked = match self.slots[slot] {
+                Slot::Tri(v, id) => !is_ignored(id) && triangle_raw(&v, &ray, t0, t1).is_some(),
+                Slot::Other(id) => {
+                    if is_ignored(id) {
+                        !self.planar[id as usize]
+                            && self.prims[id as usize]
+                                .intersect(&ray, self_eps, len - self_eps)
+                                .is_some()
+                    } else {
+                        self.prims[id as usize].intersect(&ray, t0, t1).is_some()
+                    }
+                }
+            };
+            if blocked { 0.0 } else { f32::INFINITY }
+        })
+    }
+
+    /// Occlusion of many segments in parallel (rayon); `out[i]` answers `pairs[i]` with
+    /// no `ignore` (end-point epsilon only).
+    ///
+    /// # Errors
+    /// [`GeometryError::OutOfRange`] if `out` and `pairs` differ in length.
+    pub fn occluded_batch(
+        &self,
+        pairs: &[(DVec3, DVec3)],
+        out: &mut [bool],
+    ) -> Result<(), GeometryError> {
+        if out.len() != pairs.len() {
+            return Err(GeometryError::OutOfRange {
+                index: out.len(),
+                len: pairs.len(),
+            });
+        }
+        out.par_iter_mut()
+            .with_min_len(256)
+            .zip(pairs.par_iter())
+            .for_each(|(o, (p, q))| *o = self.occluded(*p, *q, [None, None]));
+        Ok(())
+    }
+
+    /// Occlusion of many queries with per-query `ignore` lists, in parallel (rayon).
+    ///
+    /// # Errors
+    /// [`GeometryError::OutOfRange`] if `out` and `queries` differ in length.
+    pub fn occluded_queries(
+        &self,
+        queries: &[OcclusionQuery],
+        out: &mut [bool],
+    ) -> Result<(), GeometryError> {
+        if out.len() != queries.len() {
+            return Err(GeometryError::OutOfRange {
+                index: out.len(),
+                len: queries.len(),
+            });
+        }
+        out.par_iter_mut()
+            .with_min_len(256)
+            .zip(queries.par_iter())
+            .for_each(|(o, qu)| *o = self.occluded(qu.p, qu.q, qu.ignore));
+        Ok(())
+    }
+
+    /// Closest hits of many rays in parallel (rayon), each over `t ∈ [tmin, tmax]`.
+    ///
+    /// # Errors
+    /// [`GeometryError::OutOfRange`] if `out` and `rays` differ in length.
+    pub fn closest_hit_batch(
+        &self,
+        rays: &[Ray],
+        tmin: f64,
+        tmax: f64,
+        out: &mut [Option<Hit>],
+    ) -> Result<(), GeometryError> {
+        if out.len() != rays.len() {
+            return Err(GeometryError::OutOfRange {
+                index: out.len(),
+                len: rays.len(),
+            });
+        }
+        out.par_iter_mut()
+            .with_min_len(256)
+            .zip(rays.par_iter())
+            .for_each(|(o, r)| *o = self.closest_hit(r, tmin, tmax));
+        Ok(())
+    }
+
+    /// Brute-force closest hit over all primitives (reference for tests).
+    pub fn closest_hit_brute(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        let mut best: Option<Hit> = None;
+        for (i, p) in self.prims.iter().enumerate() {
+            let bt = best.map_or(tmax, |b| b.t);
+            if let Some(mut h) = p.intersect(ray, tmin, bt) {
+                h.prim = i as PrimId;
+                best = Some(h);
+            }
+        }
+        best
+    }
+
+    /// Brute-force occlusion with the same epsilon rules as [`Accel::occluded`] (reference for tests).
+    pub fn occluded_brute(&self, p: DVec3, q: DVec3, ignore: [Option<PrimId>; 2]) -> bool {
+        let len = (q - p).length();
+        if len == 0.0 || !len.is_finite() || self.prims.is_empty() {
+            return false;
+        }
+        let ray = Ray {
+            origin: p,
+            dir: (q - p) / len,
+        };
+        let eps = EPS_REL * self.diag;
+        let self_eps = SELF_EPS_REL * self.diag;
+        if 2.0 * eps >= len {
+            return false;
+        }
+        self.prims.iter().enumerate().any(|(i, pr)| {
+            let id = i as PrimId;
+            if ignore.contains(&Some(id)) {
+                !self.planar[i] && pr.intersect(&ray, self_eps, len - self_eps).is_some()
+            } else {
+                pr.intersect(&ray, eps, len - eps).is_some()
+            }
+        })
+    }
+}

@@ -1,0 +1,461 @@
+//! Exact ray intersection for every primitive.
+//!
+//! - Triangles: the watertight test of Woop, Benthin & Wald (2013) in f64 (shear to ray
+//!   space, three edge functions), so two triangles sharing an edge leave no crack.
+//! - Parallelograms and planar polygons: plane hit, then the parameter-space test; the
+//!   test is dilated by 1e-9 of the primitive's size so abutting primitives never leak.
+//! - Trimmed patches: the implicit form of the surface (plane, sphere, spheroid,
+//!   cylinder, cone, torus) gives a polynomial in `t` whose roots in the clipped ray
+//!   interval are found robustly ([`crate::poly`]; a quartic for the torus); every root
+//!   is mapped to `(u, v)` by the surface's inverse and kept if the trim region
+//!   (slab decomposition, VirtualMesh §4.2) contains it. Surfaces of other shapes fall
+//!   back to Newton iteration seeded on a parameter grid.
+//! - Bézier patches: de Casteljau subdivision with control-hull box culling (the
+//!   interval part), then Newton on `S(u, v) = o + t d` from each surviving cell.
+
+use glam::{DVec2, DVec3};
+use wavelux_param::SurfaceShape;
+
+use crate::bezier;
+use crate::poly;
+use crate::primitive::{
+    Aabb, BezierPatch, ComplexPolygon, Hit, Parallelogram, PatchSurface, Primitive, Ray, Triangle,
+    TrimmedPatch,
+};
+use crate::surface::{Frame, Surface};
+
+/// Relative parameter-space dilation of planar primitives (see the module docs).
+pub const PLANAR_DILATION: f64 = 1e-9;
+
+/// Watertight ray–triangle test; returns `(t, β, γ)` (barycentric weights of `b`, `c`).
+#[inline]
+pub fn triangle_raw(v: &[DVec3; 3], ray: &Ray, tmin: f64, tmax: f64) -> Option<(f64, f64, f64)> {
+    let d = ray.dir;
+    let ad = d.abs();
+    let kz = if ad.x > ad.y {
+        if ad.x > ad.z { 0 } else { 2 }
+    } else if ad.y > ad.z {
+        1
+    } else {
+        2
+    };
+    let mut kx = (kz + 1) % 3;
+    let mut ky = (kx + 1) % 3;
+    if d[kz] < 0.0 {
+        std::mem::swap(&mut kx, &mut ky);
+    }
+    let sx = d[kx] / d[kz];
+    let sy = d[ky] / d[kz];
+    let sz = 1.0 / d[kz];
+    let a = v[0] - ray.origin;
+    let b = v[1] - ray.origin;
+    let c = v[2] - ray.origin;
+    let ax = a[kx] - sx * a[kz];
+    let ay = a[ky] - sy * a[kz];
+    let bx = b[kx] - sx * b[kz];
+    let by = b[ky] - sy * b[kz];
+    let cx = c[kx] - sx * c[kz];
+    let cy = c[ky] - sy * c[kz];
+    let u = cx * by - cy * bx;
+    let vv = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    if (u < 0.0 || vv < 0.0 || w < 0.0) && (u > 0.0 || vv > 0.0 || w > 0.0) {
+        return None;
+    }
+    let det = u + vv + w;
+    if det == 0.0 {
+        return None;
+    }
+    let t = (u * sz * a[kz] + vv * sz * b[kz] + w * sz * c[kz]) / det;
+    if !(t >= tmin && t <= tmax) {
+        return None;
+    }
+    Some((t, vv / det, w / det))
+}
+
+fn make_hit(ray: &Ray, t: f64, uv: DVec2, normal: DVec3) -> Hit {
+    Hit {
+        prim: 0,
+        t,
+        point: ray.at(t),
+        uv,
+        normal,
+        front: ray.dir.dot(normal) < 0.0,
+    }
+}
+
+impl Triangle {
+    /// Closest intersection with `t ∈ [tmin, tmax]`.
+    pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        let (t, b, c) = triangle_raw(&self.v, ray, tmin, tmax)?;
+        Some(self.intersect_from(ray, t, b, c))
+    }
+
+    /// Hit record from the raw result of [`triangle_raw`].
+    pub fn intersect_from(&self, ray: &Ray, t: f64, beta: f64, gamma: f64) -> Hit {
+        make_hit(ray, t, Triangle::uv_from_bary(beta, gamma), self.normal())
+    }
+}
+
+fn plane_t(ray: &Ray, p0: DVec3, n: DVec3, tmin: f64, tmax: f64) -> Option<f64> {
+    let den = ray.dir.dot(n);
+    if den == 0.0 {
+        return None;
+    }
+    let t = (p0 - ray.origin).dot(n) / den;
+    (t >= tmin && t <= tmax).then_some(t)
+}
+
+impl Parallelogram {
+    /// Closest intersection with `t ∈ [tmin, tmax]`.
+    pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        let n = self.e1.cross(self.e2);
+        let t = plane_t(ray, self.origin, n, tmin, tmax)?;
+        let r = ray.at(t) - self.origin;
+        let nn = n.length_squared();
+        let u = r.cross(self.e2).dot(n) / nn;
+        let v = self.e1.cross(r).dot(n) / nn;
+        let d = PLANAR_DILATION;
+        if u < -d || u > 1.0 + d || v < -d || v > 1.0 + d {
+            return None;
+        }
+        Some(make_hit(
+            ray,
+            t,
+            DVec2::new(u, v).clamp(DVec2::ZERO, DVec2::ONE),
+            n / nn.sqrt(),
+        ))
+    }
+}
+
+impl ComplexPolygon {
+    /// Closest intersection with `t ∈ [tmin, tmax]`.
+    pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        let n = self.frame.normal();
+        let t = plane_t(ray, self.frame.origin, n, tmin, tmax)?;
+        let p = ray.at(t);
+        let q = self.frame.to_plane(p);
+        let (lo, hi) = self.region.bounds();
+        let tol = PLANAR_DILATION * (hi - lo).max_element();
+        if !self.region.contains_tol(q, tol) {
+            return None;
+        }
+        let uv = ((q - lo) / (hi - lo)).clamp(DVec2::ZERO, DVec2::ONE);
+        Some(make_hit(ray, t, uv, n))
+    }
+}
+
+/// Implicit surfaces in local coordinates (see [`implicit_roots`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Implicit {
+    /// The plane `z = 0`.
+    Plane,
+    /// `|x|² = r²`.
+    Sphere(f64),
+    /// `(x² + y²)/a² + z²/c² = 1`.
+    Spheroid(f64, f64),
+    /// `x² + y² = r²`.
+    Cylinder(f64),
+    /// Double cone `x² + y² = k² z²` (apex at the origin).
+    Cone(f64),
+    /// `(|x|² + R² − r²)² = 4R²(x² + y²)`.
+    Torus(f64, f64),
+}
+
+/// All `t ∈ [tmin, tmax]` (ascending) where the ray with *local* origin `o` and unit
+/// direction `d` meets the implicit surface.
+pub fn implicit_roots(imp: Implicit, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Vec<f64> {
+    // Shift the origin to the start of the interval (conditioning), solve in s = t − tmin.
+    let o = o + tmin * d;
+    let span = tmax - tmin;
+    let xy = |a: DVec3, b: DVec3| a.x * b.x + a.y * b.y;
+    let coeffs: Vec<f64> = match imp {
+        Implicit::Plane => vec![o.z, d.z],
+        Implicit::Sphere(r) => vec![
+            o.length_squared() - r * r,
+            2.0 * o.dot(d),
+            d.length_squared(),
+        ],
+        Implicit::Spheroid(a, c) => {
+            let s = DVec3::new(1.0 / a, 1.0 / a, 1.0 / c);
+            let (os, ds) = (o * s, d * s);
+            vec![
+                os.length_squared() - 1.0,
+                2.0 * os.dot(ds),
+                ds.length_squared(),
+            ]
+        }
+        Implicit::Cylinder(r) => vec![xy(o, o) - r * r, 2.0 * xy(o, d), xy(d, d)],
+        Implicit::Cone(k) => {
+            let k2 = k * k;
+            vec![
+                xy(o, o) - k2 * o.z * o.z,
+                2.0 * (xy(o, d) - k2 * o.z * d.z),
+                xy(d, d) - k2 * d.z * d.z,
+            ]
+        }
+        Implicit::Torus(big, small) => {
+            let dd = d.length_squared();
+            let b = o.dot(d);
+            let kk = o.length_squared() + big * big - small * small;
+            let e = xy(d, d);
+            let f = xy(o, d);
+            let g = xy(o, o);
+            let r2 = 4.0 * big * big;
+            vec![
+                kk * kk - r2 * g,
+                4.0 * b * kk - 2.0 * r2 * f,
+                4.0 * b * b + 2.0 * kk * dd - r2 * e,
+                4.0 * b * dd,
+                dd * dd,
+            ]
+        }
+    };
+    poly::roots_in(&coeffs, 0.0, span)
+        .into_iter()
+        .map(|s| s + tmin)
+        .collect()
+}
+
+fn frame_of(f: &wavelux_param::Frame) -> Frame {
+    Frame {
+        origin: f.origin(),
+        x: f.x_axis(),
+        y: f.y_axis(),
+        z: f.z_axis(),
+    }
+}
+
+/// Local frame and implicit form of a surface, if it has one.
+pub fn implicit_of(s: &PatchSurface) -> Option<(Frame, Implicit)> {
+    match s {
+        PatchSurface::Analytic(a) => {
+            let f = *a.frame();
+            Some(match *a {
+                Surface::Sphere { radius, .. } => (f, Implicit::Sphere(radius)),
+                Surface::Spheroid { a, c, .. } => (f, Implicit::Spheroid(a, c)),
+                Surface::Cylinder { radius, .. } => (f, Implicit::Cylinder(radius)),
+                Surface::Cone { radius, height, .. } => {
+                    // Apex at z = height: shift the frame origin to the apex.
+                    let apex = Frame {
+                        origin: f.to_world(DVec3::new(0.0, 0.0, height)),
+                        ..f
+                    };
+                    (apex, Implicit::Cone(radius / height))
+                }
+                Surface::Torus { major, minor, .. } => (f, Implicit::Torus(major, minor)),
+            })
+        }
+        PatchSurface::Param(p) => match p.shape() {
+            SurfaceShape::Parallelogram(pg) => {
+                let f = Frame::from_axis(pg.origin(), pg.e1().cross(pg.e2())).ok()?;
+                Some((f, Implicit::Plane))
+            }
+            SurfaceShape::Sphere(s) => Some((frame_of(s.frame()), Implicit::Sphere(s.radius()))),
+            SurfaceShape::Cylinder(c) => {
+                Some((frame_of(c.frame()), Implicit::Cylinder(c.radius())))
+            }
+            SurfaceShape::Cone(c) => {
+                Some((frame_of(c.frame()), Implicit::Cone(c.radius() / c.height())))
+            }
+            _ => None,
+        },
+    }
+}
+
+/// Parameter-space tolerance of the patch-boundary test for curved patches.
+const PATCH_UV_TOL: f64 = 1e-10;
+
+fn patch_uv(s: &PatchSurface, p: DVec3) -> Option<DVec2> {
+    match s {
+        PatchSurface::Param(q) => q.inverse(p),
+        PatchSurface::Analytic(a) => Some(a.uv_of_local(a.frame().to_local(p))),
+    }
+}
+
+impl TrimmedPatch {
+    /// Closest intersection with `t ∈ [tmin, tmax]` that the trim keeps.
+    pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        let bb = self.aabb();
+        let pad = 1e-9 * bb.diagonal().length();
+        let (t0, t1) = bb.expanded(pad).intersect_ray(ray, tmin, tmax)?;
+        let Some((frame, imp)) = implicit_of(&self.surface) else {
+            return self.intersect_newton(ray, t0, t1);
+        };
+        let o = frame.to_local(ray.origin);
+        let d = frame.vec_to_local(ray.dir);
+        for t in implicit_roots(imp, o, d, t0, t1) {
+            if t < tmin || t > tmax {
+                continue;
+            }
+            let p = ray.at(t);
+            let Some(uv) = patch_uv(&self.surface, p) else {
+                continue;
+            };
+            if self.keeps(uv, PATCH_UV_TOL) {
+                let uv = uv.clamp(DVec2::ZERO, DVec2::ONE);
+                return Some(make_hit(ray, t, uv, self.surface.normal(uv)));
+            }
+        }
+        None
+    }
+
+    /// Fallback for surfaces without an implicit form: Newton on `S(u,v) − (o + t d)`
+    /// seeded at the cells of a 24×24 parameter grid that the ray passes near.
+    fn intersect_newton(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        let PatchSurface::Param(p) = &self.surface else {
+            return None;
+        };
+        let n = 24;
+        let h = 1.0 / n as f64;
+        let mut best: Option<Hit> = None;
+        for i in 0..n {
+            for j in 0..n {
+                let c = DVec2::new((i as f64 + 0.5) * h, (j as f64 + 0.5) * h);
+                let corners = [
+                    DVec2::new(i as f64 * h, j as f64 * h),
+                    DVec2::new((i + 1) as f64 * h, (j + 1) as f64 * h),
+                    DVec2::new(i as f64 * h, (j + 1) as f64 * h),
+                    DVec2::new((i + 1) as f64 * h, j as f64 * h),
+                ];
+                let b = Aabb::from_points(
+                    corners
+                        .iter()
+                        .map(|q| p.position(*q))
+                        .chain(std::iter::once(p.position(c))),
+                );
+                let b = b.expanded(0.5 * b.diagonal().length());
+                let Some((ta, tb)) = b.intersect_ray(ray, tmin, tmax) else {
+                    continue;
+                };
+                let seed_t = 0.5 * (ta + tb);
+                let eval = |uv: DVec2| {
+                    let sp = p.eval(uv);
+                    (sp.position, sp.dp_du, sp.dp_dv)
+                };
+                if let Some((t, uv)) = newton_surface(eval, ray, c, seed_t, tmin, tmax)
+                    && self.keeps(uv, PATCH_UV_TOL)
+                    && best.as_ref().is_none_or(|bh| t < bh.t)
+                {
+                    best = Some(make_hit(ray, t, uv, p.normal(uv)));
+                }
+            }
+        }
+        best
+    }
+}
+
+/// Newton iteration for `S(u,v) = o + t d` from a seed; returns `(t, uv)` on convergence
+/// (residual below 1e-12 of the point's magnitude scale) with `uv ∈ [0,1]²` (to 1e-9).
+fn newton_surface<F: Fn(DVec2) -> (DVec3, DVec3, DVec3)>(
+    eval: F,
+    ray: &Ray,
+    mut uv: DVec2,
+    mut t: f64,
+    tmin: f64,
+    tmax: f64,
+) -> Option<(f64, DVec2)> {
+    for _ in 0..30 {
+        let (s, su, sv) = eval(uv);
+        let r = s - ray.at(t);
+        let scale = 1.0 + s.abs().max_element() + su.length() + sv.length();
+        if r.length() <= 1e-13 * scale {
+            let inside =
+                uv.cmpge(DVec2::splat(-1e-9)).all() && uv.cmple(DVec2::splat(1.0 + 1e-9)).all();
+            return (inside && t >= tmin && t <= tmax)
+                .then_some((t, uv.clamp(DVec2::ZERO, DVec2::ONE)));
+        }
+        // Solve [su sv −d] [du dv dt]ᵀ = −r.
+        let m = glam::DMat3::from_cols(su, sv, -ray.dir);
+        let det = m.determinant();
+        if det.abs() <= 1e-300 || !det.is_finite() {
+            return None;
+        }
+        let x = m.inverse() * (-r);
+        uv += DVec2::new(x.x, x.y);
+        t += x.z;
+        if !uv.is_finite() || uv.min_element() < -0.5 || uv.max_element() > 1.5 {
+            return None;
+        }
+    }
+    None
+}
+
+impl BezierPatch {
+    /// Closest intersection with `t ∈ [tmin, tmax]`: subdivision with control-hull box
+    /// culling down to cells of 1/64 of the patch size (or depth 20), then Newton.
+    pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        let size = self.aabb().diagonal().length();
+        let pad = 1e-9 * size;
+        let mut best: Option<(f64, DVec2)> = None;
+        let mut stack: Vec<([[DVec3; 4]; 4], DVec2, DVec2, u32)> =
+            vec![(self.p, DVec2::ZERO, DVec2::ONE, 0)];
+        while let Some((net, lo, hi, depth)) = stack.pop() {
+            let cur_max = best.map_or(tmax, |b| b.0);
+            let b = Aabb::from_points(net.iter().flatten().copied()).expanded(pad);
+            let Some((ta, tb)) = b.intersect_ray(ray, tmin, cur_max) else {
+                continue;
+            };
+            let diag = b.diagonal().length();
+            if diag <= size / 64.0 || depth >= 20 {
+                let seed = 0.5 * (lo + hi);
+                if let Some((t, uv)) = newton_surface(
+                    |q| bezier::eval(&self.p, q),
+                    ray,
+                    seed,
+                    0.5 * (ta + tb),
+                    tmin,
+                    cur_max,
+                ) {
+                    if best.is_none_or(|bb| t < bb.0) {
+                        best = Some((t, uv));
+                    }
+                    continue;
+                }
+                if depth >= 20 {
+                    continue;
+                }
+                if diag <= size / 4096.0 {
+                    // Newton failed on a tiny cell: no transversal root here.
+                    continue;
+                }
+            }
+            let (mid_u, mid_v) = (0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y));
+            let (a, bnet) = bezier::split_u(&net);
+            for (half, l, h) in [
+                (a, lo, DVec2::new(mid_u, hi.y)),
+                (bnet, DVec2::new(mid_u, lo.y), hi),
+            ] {
+                let (c0, c1) = bezier::split_v(&half);
+                stack.push((c0, l, DVec2::new(h.x, mid_v), depth + 1));
+                stack.push((c1, DVec2::new(l.x, mid_v), h, depth + 1));
+            }
+        }
+        let (t, uv) = best?;
+        let (_, su, sv) = bezier::eval(&self.p, uv);
+        let n = su.cross(sv).try_normalize().unwrap_or(DVec3::Z);
+        Some(make_hit(ray, t, uv, n))
+    }
+}
+
+impl Primitive {
+    /// Closest intersection with `t ∈ [tmin, tmax]` (`Hit::prim` is 0; the accelerator sets it).
+    pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        match self {
+            Primitive::Triangle(t) => t.intersect(ray, tmin, tmax),
+            Primitive::Parallelogram(p) => p.intersect(ray, tmin, tmax),
+            Primitive::Polygon(p) => p.intersect(ray, tmin, tmax),
+            Primitive::Trimmed(p) => p.intersect(ray, tmin, tmax),
+            Primitive::Bezier(b) => b.intersect(ray, tmin, tmax),
+        }
+    }
+
+    /// True for planar primitives (a ray from a point on them cannot hit them again).
+    pub fn is_planar(&self) -> bool {
+        match self {
+            Primitive::Triangle(_) | Primitive::Parallelogram(_) | Primitive::Polygon(_) => true,
+            Primitive::Trimmed(p) => matches!(implicit_of(&p.surface), Some((_, Implicit::Plane))),
+            Primitive::Bezier(_) => false,
+        }
+    }
+}
