@@ -9,6 +9,7 @@ pub use wavelux_mra as mra;
 pub use wavelux_param as param;
 pub use wavelux_quadrature as quadrature;
 pub use wavelux_scene as scene;
+pub use wavelux_solver as solver;
 
 /// The member crates, their one-line job, in dependency order (lowest first).
 pub const CRATES: &[(&str, &str)] = &[
@@ -35,5 +36,9 @@ pub const CRATES: &[(&str, &str)] = &[
     (
         "wavelux-scene",
         "scene model, glTF and native loaders, built-in scenes",
+    ),
+    (
+        "wavelux-solver",
+        "wavelet radiosity: hierarchies, links, oracles, gathering and shooting",
     ),
 ];
