@@ -13,15 +13,19 @@
 //!   between unit squares that coincide, share an edge or share a vertex, and 2D
 //!   Duffy rules for point singularities (Ziegler §3.3.3 avoided these; we do not);
 //! - [`simplex`]: Stroud conical-product rules on triangles and polar rules on disks;
+//! - [`masked`]: cell-centred `n×n` rules and masked rules whose weights are the real
+//!   area of each cell of a trimmed support (VirtualMesh §4.2, Fig. 7);
 
 pub mod gauss;
 pub mod jacobi;
+pub mod masked;
 pub mod rule;
 pub mod simplex;
 pub mod singular;
 
 pub use gauss::GaussLegendre;
 pub use jacobi::GaussJacobi;
+pub use masked::{CellFractions, Disk, Polygon, SignedDistance};
 pub use rule::RuleNd;
 pub use singular::{Corner, SquarePair};
 

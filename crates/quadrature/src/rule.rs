@@ -210,10 +210,21 @@ impl RuleNd {
         &self.points[i * self.dim..(i + 1) * self.dim]
     }
 
-    /// Sum of the weights (the measure of the domain for this crate's rules).
+    /// Sum of the weights (the measure of the domain for this crate's rules), with
+    /// compensated (Neumaier) summation.
     #[must_use]
     pub fn weight_sum(&self) -> f64 {
-        self.weights.iter().sum()
+        let (mut s, mut c) = (0.0f64, 0.0f64);
+        for &w in &self.weights {
+            let t = s + w;
+            c += if s.abs() >= w.abs() {
+                (s - t) + w
+            } else {
+                (w - t) + s
+            };
+            s = t;
+        }
+        s + c
     }
 
     /// Iterates over `(point, weight)` pairs without allocating.
