@@ -13,8 +13,10 @@
 //! All lengths are in world units and all maps are scale covariant (tested for sizes
 //! 1e-4 … 1e4).
 
+mod direction;
 mod error;
 mod frame;
+pub mod mep;
 mod numeric;
 mod parallelogram;
 mod quadrics;
@@ -22,8 +24,16 @@ mod spheroid;
 mod surface;
 mod torus;
 
+pub use direction::{
+    ConcentricHemisphere, DirectionMap, GlossyHemisphere, OctahedralSphere,
+    concentric_disc_to_square, concentric_square_to_disc,
+};
 pub use error::ParamError;
 pub use frame::{Aabb, Frame, SurfacePoint};
+pub use mep::{
+    BoundarySegment, convex_hull, min_enclosing_parallelogram,
+    min_enclosing_parallelogram_of_boundary,
+};
 pub use parallelogram::{Parallelogram, Parallelogram2};
 pub use quadrics::{Cone, Cylinder, Sphere};
 pub use spheroid::Spheroid;
