@@ -62,7 +62,7 @@ fn assert_encloses(p: &Parallelogram2, pts: &[DVec2]) {
 #[test]
 fn mep_matches_brute_force_on_random_sets() {
     let mut r = rng(21);
-    for case in 0..60 {
+    for case in 0..60usize {
         let n = 3 + case % 25;
         let scale = 10f64.powi((case % 9) as i32 - 4);
         let stretch = 1.0 + 9.0 * r.random::<f64>();
