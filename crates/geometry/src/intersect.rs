@@ -258,6 +258,14 @@ pub fn implicit_of(s: &PatchSurface) -> Option<(Frame, Implicit)> {
             SurfaceShape::Cone(c) => {
                 Some((frame_of(c.frame()), Implicit::Cone(c.radius() / c.height())))
             }
+            SurfaceShape::Spheroid(s) => Some((
+                frame_of(s.frame()),
+                Implicit::Spheroid(s.equatorial_semi_axis(), s.polar_semi_axis()),
+            )),
+            SurfaceShape::Torus(t) => Some((
+                frame_of(t.frame()),
+                Implicit::Torus(t.major_radius(), t.minor_radius()),
+            )),
             _ => None,
         },
     }
@@ -300,9 +308,13 @@ impl TrimmedPatch {
         None
     }
 
-    /// Fallback for surfaces without an implicit form: Newton on `S(u,v) − (o + t d)`
-    /// seeded at the cells of a 24×24 parameter grid that the ray passes near.
-    fn intersect_newton(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+    /// Fallback for surfaces without an implicit form (public so it can be tested on
+    /// surfaces that have one): Newton on `S(u,v) − (o + t d)` seeded at the centre of
+    /// every cell of a 24×24 parameter grid whose (doubled) box the ray crosses, with `t`
+    /// seeded by projecting the cell centre on the ray; a converged root is accepted only
+    /// within 1.5 cells of its seed, so each root is found from a nearby cell. Roots at
+    /// grazing incidence or closer than a cell to the patch boundary may be missed.
+    pub fn intersect_newton(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         let PatchSurface::Param(p) = &self.surface else {
             return None;
         };
@@ -328,12 +340,13 @@ impl TrimmedPatch {
                 let Some((ta, tb)) = b.intersect_ray(ray, tmin, tmax) else {
                     continue;
                 };
-                let seed_t = 0.5 * (ta + tb);
+                let seed_t = (p.position(c) - ray.origin).dot(ray.dir).clamp(ta, tb);
                 let eval = |uv: DVec2| {
                     let sp = p.eval(uv);
                     (sp.position, sp.dp_du, sp.dp_dv)
                 };
                 if let Some((t, uv)) = newton_surface(eval, ray, c, seed_t, tmin, tmax)
+                    && (uv - c).abs().max_element() <= 1.5 * h
                     && self.keeps(uv, PATCH_UV_TOL)
                     && best.as_ref().is_none_or(|bh| t < bh.t)
                 {

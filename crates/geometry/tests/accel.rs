@@ -1,0 +1,259 @@
+//! The obvhs accelerator vs brute force; no acne, no leaks through shared edges/corners.
+
+use glam::{DVec2, DVec3};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
+use std::f64::consts::PI;
+use std::sync::Arc;
+use wavelux_geometry::*;
+use wavelux_param as param;
+
+fn rv(r: &mut Pcg64, lo: f64, hi: f64) -> DVec3 {
+    DVec3::new(
+        r.random_range(lo..hi),
+        r.random_range(lo..hi),
+        r.random_range(lo..hi),
+    )
+}
+
+fn random_scene(seed: u64, n_tri: usize) -> Vec<Primitive> {
+    let mut r = Pcg64::seed_from_u64(seed);
+    let mut prims: Vec<Primitive> = Vec::new();
+    for _ in 0..n_tri {
+        let c = rv(&mut r, -5.0, 5.0);
+        let s = r.random_range(0.05..0.8);
+        if let Ok(t) = Triangle::new(
+            c + rv(&mut r, -s, s),
+            c + rv(&mut r, -s, s),
+            c + rv(&mut r, -s, s),
+        ) {
+            prims.push(t.into());
+        }
+    }
+    for _ in 0..20 {
+        let c = rv(&mut r, -5.0, 5.0);
+        if let Ok(p) = Parallelogram::new(c, rv(&mut r, -1.0, 1.0), rv(&mut r, -1.0, 1.0)) {
+            prims.push(p.into());
+        }
+    }
+    let pts = [
+        DVec3::ZERO,
+        DVec3::X,
+        DVec3::new(1.0, 1.0, 0.0),
+        DVec3::new(0.5, 0.3, 0.0),
+        DVec3::Y,
+    ];
+    for _ in 0..5 {
+        let c = rv(&mut r, -5.0, 5.0);
+        let lp: Vec<DVec3> = pts.iter().map(|p| c + *p).collect();
+        prims.push(ComplexPolygon::from_world_loops(&lp, &[]).unwrap().into());
+    }
+    for k in 0..6 {
+        let c = rv(&mut r, -4.0, 4.0);
+        let f = param::Frame::from_axis(c, rv(&mut r, -1.0, 1.0) + DVec3::Z * 0.1).unwrap();
+        let s: Arc<dyn param::Parametrization> = match k % 3 {
+            0 => Arc::new(param::Sphere::full(f, 0.6).unwrap()),
+            1 => Arc::new(param::Torus::new(f, 0.8, 0.25, (-PI, PI), (-PI, PI)).unwrap()),
+            _ => Arc::new(param::Cylinder::new(f, 0.4, (0.0, 4.0), (0.0, 1.0)).unwrap()),
+        };
+        let trim = TrimRegion::new(vec![
+            TrimLoop::rect(DVec2::splat(0.0), DVec2::splat(1.0)).unwrap(),
+            TrimLoop::circle(DVec2::splat(0.5), 0.2).unwrap().reversed(),
+        ])
+        .unwrap();
+        prims.push(TrimmedPatch::on_param(s, Some(trim)).unwrap().into());
+    }
+    let mut p = [[DVec3::ZERO; 4]; 4];
+    for i in 0..4 {
+        for j in 0..4 {
+            p[i][j] = DVec3::new(i as f64 * 0.5, j as f64 * 0.5, ((i + j) % 3) as f64 * 0.3)
+                + DVec3::new(1.0, -2.0, 0.5);
+        }
+    }
+    prims.push(BezierPatch::new(p).unwrap().into());
+    prims
+}
+
+#[test]
+fn occlusion_and_closest_hit_equal_brute_force() {
+    for seed in 0..3 {
+        let scene = random_scene(seed, 400);
+        let acc = Accel::build(scene).unwrap();
+        let mut r = Pcg64::seed_from_u64(100 + seed);
+        let mut pairs = Vec::new();
+        for _ in 0..1500 {
+            pairs.push((rv(&mut r, -6.0, 6.0), rv(&mut r, -6.0, 6.0)));
+        }
+        let mut out = vec![false; pairs.len()];
+        acc.occluded_batch(&pairs, &mut out).unwrap();
+        let mut n_occ = 0;
+        for (k, (p, q)) in pairs.iter().enumerate() {
+            let brute = acc.occluded_brute(*p, *q, [None, None]);
+            assert_eq!(out[k], brute, "pair {k}");
+            assert_eq!(acc.occluded(*p, *q, [None, None]), brute);
+            n_occ += usize::from(brute);
+            let ray = Ray::new(*p, *q - *p).unwrap();
+            let a = acc.closest_hit(&ray, 0.0, f64::INFINITY);
+            let b = acc.closest_hit_brute(&ray, 0.0, f64::INFINITY);
+            assert_eq!(
+                a.map(|h| h.prim),
+                b.map(|h| h.prim),
+                "closest prim, pair {k}"
+            );
+            if let (Some(a), Some(b)) = (a, b) {
+                assert!((a.t - b.t).abs() <= 1e-12 * (1.0 + a.t));
+                assert!((acc.primitives()[a.prim as usize].eval(a.uv) - a.point).length() < 1e-8);
+            }
+        }
+        assert!(
+            n_occ > 100 && n_occ < 1400,
+            "scene should be partly occluding: {n_occ}"
+        );
+    }
+}
+
+#[test]
+fn batch_length_mismatch_is_an_error() {
+    let acc = Accel::build(random_scene(9, 10)).unwrap();
+    let mut out = vec![false; 1];
+    assert!(acc.occluded_batch(&[], &mut out).is_err());
+}
+
+/// Closed box [0,1]³ from 12 triangles (or 6 parallelograms), inward-facing.
+fn box_prims(tris: bool, s: f64, off: DVec3) -> Vec<Primitive> {
+    let v = |x: f64, y: f64, z: f64| off + s * DVec3::new(x, y, z);
+    let quads = [
+        [v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)],
+        [v(0., 0., 1.), v(0., 1., 1.), v(1., 1., 1.), v(1., 0., 1.)],
+        [v(0., 0., 0.), v(0., 0., 1.), v(1., 0., 1.), v(1., 0., 0.)],
+        [v(0., 1., 0.), v(1., 1., 0.), v(1., 1., 1.), v(0., 1., 1.)],
+        [v(0., 0., 0.), v(0., 1., 0.), v(0., 1., 1.), v(0., 0., 1.)],
+        [v(1., 0., 0.), v(1., 0., 1.), v(1., 1., 1.), v(1., 1., 0.)],
+    ];
+    let mut out = Vec::new();
+    for q in quads {
+        if tris {
+            out.push(Triangle::new(q[0], q[1], q[2]).unwrap().into());
+            out.push(Triangle::new(q[0], q[2], q[3]).unwrap().into());
+        } else {
+            out.push(
+                Parallelogram::new(q[0], q[1] - q[0], q[3] - q[0])
+                    .unwrap()
+                    .into(),
+            );
+        }
+    }
+    out
+}
+
+#[test]
+fn no_leaks_through_shared_edges_and_corners() {
+    for tris in [true, false] {
+        for &(s, off) in &[
+            (1.0, DVec3::ZERO),
+            (1e-3, DVec3::splat(5.0)),
+            (1e3, DVec3::splat(-2e3)),
+        ] {
+            let acc = Accel::build(box_prims(tris, s, off)).unwrap();
+            let c = off + DVec3::splat(0.5 * s);
+            // Aim exactly at every corner, edge midpoint and face diagonal point, from inside
+            // to far outside, and along many random directions through edges.
+            let mut targets = Vec::new();
+            for i in 0..3 {
+                for j in 0..3 {
+                    for k in 0..3 {
+                        targets.push(off + 0.5 * s * DVec3::new(i as f64, j as f64, k as f64));
+                    }
+                }
+            }
+            let mut r = Pcg64::seed_from_u64(3);
+            for _ in 0..300 {
+                // Random points on random cube edges.
+                let t = r.random_range(0.0..1.0);
+                let e = r.random_range(0..12usize);
+                let (a, b) = (e % 4, e / 4);
+                let mut p = [0.0f64; 3];
+                p[b] = t;
+                p[(b + 1) % 3] = (a & 1) as f64;
+                p[(b + 2) % 3] = (a >> 1) as f64;
+                targets.push(off + s * DVec3::from_array(p));
+            }
+            for tgt in targets {
+                if (tgt - c).length() < 1e-9 * s {
+                    continue;
+                }
+                let far = c + 10.0 * (tgt - c);
+                assert!(
+                    acc.occluded(c, far, [None, None]),
+                    "leak towards {tgt:?} (tris={tris}, s={s})"
+                );
+                let ray = Ray::new(c, tgt - c).unwrap();
+                assert!(
+                    acc.closest_hit(&ray, 0.0, f64::INFINITY).is_some(),
+                    "closest-hit leak (tris={tris})"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn no_self_shadowing_between_surface_points() {
+    // Inside a closed box every pair of points on two faces sees each other, with and
+    // without naming the end points' primitives; also inside a sphere.
+    let acc = Accel::build(box_prims(false, 2.0, DVec3::new(0.3, -1.0, 7.0))).unwrap();
+    let mut r = Pcg64::seed_from_u64(4);
+    for _ in 0..2000 {
+        let i = r.random_range(0..6usize);
+        let j = r.random_range(0..6usize);
+        if i == j {
+            continue;
+        }
+        let uvi = DVec2::new(r.random_range(0.0..1.0), r.random_range(0.0..1.0));
+        let uvj = DVec2::new(r.random_range(0.0..1.0), r.random_range(0.0..1.0));
+        let p = acc.primitives()[i].eval(uvi);
+        let q = acc.primitives()[j].eval(uvj);
+        assert!(!acc.occluded(p, q, [Some(i as u32), Some(j as u32)]));
+        assert!(
+            !acc.occluded(p, q, [None, None]),
+            "acne between faces {i} and {j}"
+        );
+    }
+    let f = param::Frame::from_axis(DVec3::new(1.0, 2.0, 3.0), DVec3::new(0.3, 0.1, 1.0)).unwrap();
+    let sph: Arc<dyn param::Parametrization> = Arc::new(param::Sphere::full(f, 1.7).unwrap());
+    let acc = Accel::build(vec![
+        TrimmedPatch::on_param(sph.clone(), None).unwrap().into(),
+    ])
+    .unwrap();
+    for _ in 0..2000 {
+        let p = sph.position(DVec2::new(
+            r.random_range(0.0..1.0),
+            r.random_range(0.0..1.0),
+        ));
+        let q = sph.position(DVec2::new(
+            r.random_range(0.0..1.0),
+            r.random_range(0.0..1.0),
+        ));
+        assert!(!acc.occluded(p, q, [Some(0), Some(0)]));
+        assert!(!acc.occluded(p, q, [None, None]));
+    }
+}
+
+#[test]
+fn curved_primitives_still_shadow_themselves() {
+    // Points at ±x on a torus's outer equator: the segment between them runs inside the
+    // tube (x from 1.3 to 0.7), crosses the hole and the other side of the tube, so the
+    // torus occludes it, also when it is named in `ignore`.
+    let f = param::Frame::at(DVec3::ZERO).unwrap();
+    let tor: Arc<dyn param::Parametrization> =
+        Arc::new(param::Torus::new(f, 1.0, 0.3, (-PI, PI), (-PI, PI)).unwrap());
+    let acc = Accel::build(vec![TrimmedPatch::on_param(tor, None).unwrap().into()]).unwrap();
+    let p = DVec3::new(1.3, 0.0, 0.0);
+    let q = DVec3::new(-1.3, 0.0, 0.0);
+    assert!(acc.occluded(p, q, [Some(0), Some(0)]));
+    assert!(acc.occluded(p, q, [None, None]));
+    // Two nearby points on the outer equator see each other.
+    let a = 0.2f64;
+    let q2 = DVec3::new(1.3 * a.cos(), 1.3 * a.sin(), 0.0);
+    assert!(!acc.occluded(p, q2, [Some(0), Some(0)]));
+}

@@ -1,0 +1,459 @@
+//! Ray intersection of every primitive vs independent brute force on random rays.
+
+use glam::{DVec2, DVec3};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
+use std::f64::consts::{PI, TAU};
+use std::sync::Arc;
+use wavelux_geometry::*;
+use wavelux_param as param;
+
+fn rng(seed: u64) -> Pcg64 {
+    Pcg64::seed_from_u64(seed)
+}
+
+fn rand_vec(r: &mut Pcg64, lo: DVec3, hi: DVec3) -> DVec3 {
+    DVec3::new(
+        r.random_range(lo.x..hi.x),
+        r.random_range(lo.y..hi.y),
+        r.random_range(lo.z..hi.z),
+    )
+}
+
+/// Random rays aimed at random points of (an enlarged) box.
+fn rays_at(b: Aabb, n: usize, seed: u64) -> Vec<Ray> {
+    let mut r = rng(seed);
+    let c = b.center();
+    let d = b.diagonal();
+    (0..n)
+        .map(|_| {
+            let o = rand_vec(&mut r, c - 1.5 * d, c + 1.5 * d);
+            let target = rand_vec(&mut r, b.min - 0.1 * d, b.max + 0.1 * d);
+            Ray::new(o, target - o).unwrap()
+        })
+        .collect()
+}
+
+fn bary_brute(v: &[DVec3; 3], ray: &Ray) -> Option<(f64, [f64; 3])> {
+    let n = (v[1] - v[0]).cross(v[2] - v[0]);
+    let den = ray.dir.dot(n);
+    if den == 0.0 {
+        return None;
+    }
+    let t = (v[0] - ray.origin).dot(n) / den;
+    let p = ray.at(t);
+    let area = |a: DVec3, b: DVec3, c: DVec3| (b - a).cross(c - a).dot(n) / n.length_squared();
+    Some((
+        t,
+        [
+            area(p, v[1], v[2]),
+            area(v[0], p, v[2]),
+            area(v[0], v[1], p),
+        ],
+    ))
+}
+
+#[test]
+fn triangle_vs_area_coordinates() {
+    let mut r = rng(1);
+    for k in 0..200 {
+        let s = 10f64.powi(k % 7 - 3);
+        let v = [0; 3].map(|_| rand_vec(&mut r, DVec3::splat(-s), DVec3::splat(s)));
+        let Ok(tri) = Triangle::new(v[0], v[1], v[2]) else {
+            continue;
+        };
+        for ray in rays_at(tri.aabb(), 50, k as u64) {
+            let got = tri.intersect(&ray, 0.0, f64::INFINITY);
+            let Some((t, b)) = bary_brute(&tri.v, &ray) else {
+                continue;
+            };
+            let margin = b.iter().copied().fold(f64::INFINITY, f64::min);
+            if margin.abs() < 1e-9 {
+                continue;
+            }
+            let want = margin > 0.0 && t >= 0.0;
+            assert_eq!(got.is_some(), want, "triangle {k}");
+            if let Some(h) = got {
+                assert!((h.t - t).abs() <= 1e-9 * (t.abs() + s));
+                assert!((tri.eval(h.uv) - h.point).length() <= 1e-9 * s);
+                assert_eq!(h.front, ray.dir.dot(tri.normal()) < 0.0);
+            }
+        }
+    }
+}
+
+#[test]
+fn parallelogram_and_polygon_vs_brute() {
+    let mut r = rng(2);
+    for k in 0..60 {
+        let o = rand_vec(&mut r, DVec3::splat(-1.0), DVec3::splat(1.0));
+        let e1 = rand_vec(&mut r, DVec3::splat(-1.0), DVec3::splat(1.0));
+        let e2 = rand_vec(&mut r, DVec3::splat(-1.0), DVec3::splat(1.0));
+        let Ok(pg) = Parallelogram::new(o, e1, e2) else {
+            continue;
+        };
+        // Brute: two triangles.
+        let [a, b, c, d] = pg.corners();
+        let t1 = Triangle::new(a, b, c).unwrap();
+        let t2 = Triangle::new(a, c, d).unwrap();
+        // Same region as a complex polygon with a triangular hole.
+        let n = pg.normal();
+        let m = o + 0.5 * e1 + 0.5 * e2;
+        let hole = vec![m, m + 0.2 * e2, m + 0.2 * e1];
+        let poly =
+            ComplexPolygon::from_world_loops(&[a, b, c, d], std::slice::from_ref(&hole)).unwrap();
+        assert!((poly.area() - 0.98 * pg.area()).abs() <= 1e-12 * pg.area());
+        assert!(poly.normal().dot(n) > 0.999_999);
+        let th = Triangle::new(hole[0], hole[1], hole[2]).unwrap();
+        for ray in rays_at(pg.aabb(), 100, 100 + k) {
+            let brute = t1
+                .intersect(&ray, 0.0, f64::INFINITY)
+                .or_else(|| t2.intersect(&ray, 0.0, f64::INFINITY));
+            let got = pg.intersect(&ray, 0.0, f64::INFINITY);
+            if let (Some(bh), Some(gh)) = (brute, got) {
+                assert!((bh.t - gh.t).abs() <= 1e-9 * (1.0 + bh.t));
+                assert!((pg.eval(gh.uv) - gh.point).length() <= 1e-9);
+            }
+            let in_hole = th.intersect(&ray, 0.0, f64::INFINITY).is_some();
+            let gp = poly.intersect(&ray, 0.0, f64::INFINITY);
+            // Skip rays within 1e-7 of an edge (either answer is legitimate there).
+            let near_edge = |h: &Option<Hit>| {
+                h.is_some_and(|h| {
+                    let q = h.uv;
+                    q.x.min(q.y).min(1.0 - q.x).min(1.0 - q.y) < 1e-7
+                })
+            };
+            if near_edge(&got) || near_edge(&brute) {
+                continue;
+            }
+            assert_eq!(brute.is_some(), got.is_some(), "parallelogram {k}");
+            if let Some(h) = gp {
+                assert!((poly.eval(h.uv) - h.point).length() <= 1e-9);
+                assert!(
+                    (pg.intersect(&ray, 0.0, f64::INFINITY).unwrap().t - h.t).abs()
+                        <= 1e-9 * (1.0 + h.t)
+                );
+            }
+            if let Some(gh) = got
+                && !in_hole
+            {
+                let q = poly.frame.to_plane(gh.point);
+                // Winding by brute force decides the polygon answer.
+                let w = poly.region.winding_brute(q);
+                assert_eq!(gp.is_some(), w != 0, "polygon {k}");
+            }
+        }
+    }
+}
+
+/// Trim region: square [0.02, 0.98]² minus a disk, with one arc-bulged side.
+fn trim_region() -> TrimRegion {
+    let a = DVec2::new(0.02, 0.02);
+    let b = DVec2::new(0.98, 0.02);
+    let c = DVec2::new(0.98, 0.98);
+    let d = DVec2::new(0.02, 0.98);
+    // Side d→a replaced by an arc bulging inwards (clockwise about a centre left of it).
+    let half = 0.48;
+    let sweep = 1.0f64;
+    let rad = half / (0.5 * sweep).sin();
+    let centre = DVec2::new(0.02 - rad * (0.5 * sweep).cos(), 0.5);
+    let start = (d - centre).to_angle();
+    let outer = TrimLoop::new(vec![
+        Edge2::segment(a, b).unwrap(),
+        Edge2::segment(b, c).unwrap(),
+        Edge2::segment(c, d).unwrap(),
+        Edge2::arc(centre, rad, start, -sweep).unwrap(),
+    ])
+    .unwrap();
+    let hole = TrimLoop::circle(DVec2::new(0.6, 0.45), 0.2)
+        .unwrap()
+        .reversed();
+    TrimRegion::new(vec![outer, hole]).unwrap()
+}
+
+fn implicit_value(s: &PatchSurface, p: DVec3) -> f64 {
+    let PatchSurface::Param(q) = s else {
+        unreachable!()
+    };
+    match q.shape() {
+        param::SurfaceShape::Sphere(x) => {
+            let l = x.frame().point_to_local(p);
+            l.length_squared() - x.radius() * x.radius()
+        }
+        param::SurfaceShape::Cylinder(x) => {
+            let l = x.frame().point_to_local(p);
+            l.x * l.x + l.y * l.y - x.radius() * x.radius()
+        }
+        param::SurfaceShape::Cone(x) => {
+            let l = x.frame().point_to_local(p);
+            let k = x.radius() / x.height();
+            l.x.hypot(l.y) - k * l.z
+        }
+        param::SurfaceShape::Spheroid(x) => {
+            let l = x.frame().point_to_local(p);
+            let (a, c) = (x.equatorial_semi_axis(), x.polar_semi_axis());
+            (l.x * l.x + l.y * l.y) / (a * a) + l.z * l.z / (c * c) - 1.0
+        }
+        param::SurfaceShape::Torus(x) => {
+            let l = x.frame().point_to_local(p);
+            let rho = l.x.hypot(l.y) - x.major_radius();
+            rho * rho + l.z * l.z - x.minor_radius() * x.minor_radius()
+        }
+        _ => unreachable!(),
+    }
+}
+
+/// Brute force: march the implicit function in 40 000 steps over the box interval,
+/// bisect sign changes, keep the first root whose inverse-mapped `uv` the trim keeps
+/// (trim decided by brute-force winding).
+fn march(patch: &TrimmedPatch, ray: &Ray) -> Option<(f64, DVec2)> {
+    let b = patch.aabb();
+    let (t0, t1) =
+        b.expanded(1e-6 * b.diagonal().length())
+            .intersect_ray(ray, 0.0, f64::INFINITY)?;
+    let n = 40_000;
+    let f = |t: f64| implicit_value(&patch.surface, ray.at(t));
+    let PatchSurface::Param(q) = &patch.surface else {
+        unreachable!()
+    };
+    let mut ta = t0;
+    let mut fa = f(ta);
+    for i in 1..=n {
+        let tb = t0 + (t1 - t0) * i as f64 / n as f64;
+        let fb = f(tb);
+        if fa.signum() != fb.signum() {
+            let (mut lo, mut hi, flo) = (ta, tb, fa);
+            for _ in 0..200 {
+                let m = 0.5 * (lo + hi);
+                if f(m).signum() == flo.signum() {
+                    lo = m
+                } else {
+                    hi = m
+                }
+            }
+            let t = 0.5 * (lo + hi);
+            if let Some(uv) = q.inverse(ray.at(t))
+                && uv.x >= 0.0
+                && uv.x <= 1.0
+                && uv.y >= 0.0
+                && uv.y <= 1.0
+                && patch
+                    .trim
+                    .as_ref()
+                    .is_none_or(|tr| tr.winding_brute(uv) != 0)
+            {
+                return Some((t, uv));
+            }
+        }
+        ta = tb;
+        fa = fb;
+    }
+    None
+}
+
+fn frame(o: DVec3, axis: DVec3) -> param::Frame {
+    param::Frame::from_axis(o, axis).unwrap()
+}
+
+fn param_surfaces() -> Vec<(&'static str, Arc<dyn param::Parametrization>)> {
+    let f = frame(DVec3::new(0.3, -0.2, 0.1), DVec3::new(0.2, 0.3, 1.0));
+    vec![
+        ("sphere", Arc::new(param::Sphere::full(f, 1.3).unwrap())),
+        (
+            "sphere patch",
+            Arc::new(param::Sphere::new(f, 0.8, (-1.0, 2.0), (-0.5, 1.2)).unwrap()),
+        ),
+        (
+            "cylinder",
+            Arc::new(param::Cylinder::new(f, 0.7, (0.0, 5.0), (-0.5, 1.0)).unwrap()),
+        ),
+        (
+            "cone",
+            Arc::new(param::Cone::new(f, 0.9, 1.4, (-PI, PI), (0.2, 1.0)).unwrap()),
+        ),
+        (
+            "prolate",
+            Arc::new(param::Spheroid::new(f, 0.6, 1.5, (-PI, PI), (-1.5, 1.5)).unwrap()),
+        ),
+        (
+            "oblate",
+            Arc::new(param::Spheroid::new(f, 1.4, 0.4, (0.0, 4.0), (-1.0, 1.3)).unwrap()),
+        ),
+        (
+            "torus",
+            Arc::new(param::Torus::new(f, 1.0, 0.35, (-PI, PI), (-PI, PI)).unwrap()),
+        ),
+        (
+            "torus patch",
+            Arc::new(param::Torus::new(f, 2.0, 0.9, (0.0, 3.0), (0.5, 5.5)).unwrap()),
+        ),
+    ]
+}
+
+#[test]
+fn trimmed_patches_vs_ray_marching() {
+    for (name, surf) in param_surfaces() {
+        for trim in [None, Some(trim_region())] {
+            let patch = TrimmedPatch::on_param(surf.clone(), trim.clone()).unwrap();
+            let size = patch.aabb().diagonal().length();
+            let mut mismatches = 0;
+            let rays = rays_at(patch.aabb(), 300, 7);
+            for ray in &rays {
+                let got = patch.intersect(ray, 0.0, f64::INFINITY);
+                let brute = march(&patch, ray);
+                match (got, brute) {
+                    (Some(h), Some((t, _))) => {
+                        assert!((h.t - t).abs() <= 1e-8 * size, "{name}: t {} vs {t}", h.t);
+                        assert!(
+                            (surf.position(h.uv) - h.point).length() <= 1e-8 * size,
+                            "{name}: uv"
+                        );
+                        assert!(h.normal.dot(surf.normal(h.uv)) > 0.999_999);
+                    }
+                    (None, None) => {}
+                    _ => mismatches += 1,
+                }
+            }
+            // Grazing rays and roots within the marching step of the trim boundary may
+            // legitimately differ; they are rare.
+            assert!(
+                mismatches <= 3,
+                "{name} trimmed={}: {mismatches} mismatches",
+                trim.is_some()
+            );
+        }
+    }
+}
+
+#[test]
+fn newton_fallback_agrees_with_implicit_roots() {
+    for (name, surf) in param_surfaces() {
+        let patch = TrimmedPatch::on_param(surf.clone(), Some(trim_region())).unwrap();
+        let size = patch.aabb().diagonal().length();
+        let mut mismatches = 0;
+        for ray in rays_at(patch.aabb(), 100, 5) {
+            let a = patch.intersect(&ray, 0.0, f64::INFINITY);
+            let b = patch.intersect_newton(&ray, 0.0, f64::INFINITY);
+            match (a, b) {
+                (Some(a), Some(b)) => assert!(
+                    (a.t - b.t).abs() <= 1e-9 * size,
+                    "{name}: {} vs {}",
+                    a.t,
+                    b.t
+                ),
+                (None, None) => {}
+                _ => mismatches += 1,
+            }
+        }
+        assert!(mismatches <= 2, "{name}: {mismatches}");
+    }
+}
+
+#[test]
+fn torus_quartic_is_accurate_far_from_origin_and_at_small_scale() {
+    for &(scale, off) in &[(1e-3, 0.0), (1.0, 1e3), (1e3, 0.0)] {
+        let f = frame(DVec3::splat(off), DVec3::new(1.0, -0.5, 0.3));
+        let tor = Arc::new(
+            param::Torus::new(f, 1.0 * scale, 0.25 * scale, (-PI, PI), (-PI, PI)).unwrap(),
+        );
+        let patch = TrimmedPatch::on_param(tor.clone(), None).unwrap();
+        let mut hits = 0;
+        for ray in rays_at(patch.aabb(), 400, 11) {
+            if let Some(h) = patch.intersect(&ray, 0.0, f64::INFINITY) {
+                hits += 1;
+                let l = f.point_to_local(h.point);
+                let rho = l.x.hypot(l.y) - scale;
+                let dist = (rho * rho + l.z * l.z).sqrt() - 0.25 * scale;
+                assert!(dist.abs() <= 1e-10 * (scale + off), "residual {dist}");
+            }
+        }
+        assert!(hits > 50);
+    }
+}
+
+#[test]
+fn analytic_surfaces_vs_param_equivalents() {
+    // The crate's own analytic torus/spheroid agree with param's on hit distances.
+    let o = DVec3::new(0.1, 0.2, 0.3);
+    let mine =
+        TrimmedPatch::on_analytic(Surface::torus(Frame::at(o), 1.0, 0.3).unwrap(), None).unwrap();
+    let pf = param::Frame::at(o).unwrap();
+    let theirs = TrimmedPatch::on_param(
+        Arc::new(param::Torus::new(pf, 1.0, 0.3, (-PI, PI), (-PI, PI)).unwrap()),
+        None,
+    )
+    .unwrap();
+    for ray in rays_at(mine.aabb(), 300, 3) {
+        let a = mine.intersect(&ray, 0.0, f64::INFINITY);
+        let b = theirs.intersect(&ray, 0.0, f64::INFINITY);
+        assert_eq!(a.is_some(), b.is_some());
+        if let (Some(a), Some(b)) = (a, b) {
+            assert!((a.t - b.t).abs() <= 1e-12 * (1.0 + a.t));
+            assert!((mine.eval(a.uv) - a.point).length() <= 1e-10);
+        }
+    }
+    let _ = TAU;
+}
+
+fn bezier_patch(seed: u64) -> BezierPatch {
+    let mut r = rng(seed);
+    let mut p = [[DVec3::ZERO; 4]; 4];
+    for i in 0..4 {
+        for j in 0..4 {
+            p[i][j] = DVec3::new(i as f64, j as f64, 0.0)
+                + rand_vec(&mut r, DVec3::splat(-0.6), DVec3::splat(0.6))
+                + DVec3::new(0.0, 0.0, 1.5 * ((i as f64 - 1.5) * (j as f64 - 1.5)).sin());
+        }
+    }
+    BezierPatch::new(p).unwrap()
+}
+
+#[test]
+fn bezier_vs_fine_tessellation() {
+    for seed in 0..4 {
+        let bz = bezier_patch(seed);
+        let n = 96;
+        let mut tris = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let q = |a: usize, b: usize| {
+                    bz.eval(DVec2::new(a as f64 / n as f64, b as f64 / n as f64))
+                };
+                let (a, b, c, d) = (q(i, j), q(i + 1, j), q(i + 1, j + 1), q(i, j + 1));
+                if let Ok(t) = Triangle::new(a, b, c) {
+                    tris.push(t);
+                }
+                if let Ok(t) = Triangle::new(a, c, d) {
+                    tris.push(t);
+                }
+            }
+        }
+        let size = bz.aabb().diagonal().length();
+        let mut mismatch = 0;
+        let rays = rays_at(bz.aabb(), 200, seed);
+        for ray in &rays {
+            let got = bz.intersect(ray, 0.0, f64::INFINITY);
+            let tess = tris
+                .iter()
+                .filter_map(|t| t.intersect(ray, 0.0, f64::INFINITY))
+                .map(|h| h.t)
+                .fold(f64::INFINITY, f64::min);
+            if let Some(h) = got {
+                assert!(
+                    (bz.eval(h.uv) - h.point).length() <= 1e-9 * size,
+                    "on surface"
+                );
+            }
+            match got {
+                Some(h) if tess.is_finite() => assert!(
+                    (h.t - tess).abs() <= 2e-3 * size,
+                    "seed {seed}: {} vs {tess}",
+                    h.t
+                ),
+                None if !tess.is_finite() => {}
+                _ => mismatch += 1,
+            }
+        }
+        assert!(mismatch <= 4, "seed {seed}: {mismatch} hit/miss mismatches");
+    }
+}
