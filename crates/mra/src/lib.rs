@@ -22,7 +22,7 @@
 //!   (VirtualMesh §5.2);
 //! * [`tensor`] — d-dimensional (d = 1..4) standard and non-standard transforms on full
 //!   grids (GlobalCube §2.3, Glossy §3.4–3.5, Ziegler Appendix A);
-//! * `sparse` — the same transforms on sparse sets keyed by (level, index);
+//! * [`sparse`] — the same transforms on sparse sets keyed by (level, index);
 //! * [`project`] — projections onto `V_j` by Gauss rules and evaluation of expansions.
 //!
 //! Levels are dyadic: level `j` of an MRA has `len(j)` scaling functions and as many
@@ -36,6 +36,7 @@ pub mod cdv;
 mod linalg;
 pub mod poly;
 pub mod project;
+pub mod sparse;
 
 pub mod tensor;
 pub mod transform;
