@@ -1,4 +1,4 @@
-//! Alpert's multiwavelets `M_k` on [0, 1] (Ziegler §3.1.2, after [alpe93]; the bases
+//! Alpert's multiwavelets `M_k` on [0, 1] (Ziegler §3.1.2, after Alpert 1993, `alpe93`; the bases
 //! `M_1`, `M_2`, `M_3` of VirtualMesh §5.2). `M_1` is the Haar MRA (Ziegler §3.1.1).
 //!
 //! On level `j` the interval is split into `2^j` cells; cell `c` carries the `k`

@@ -1,5 +1,5 @@
 //! The Cohen–Daubechies–Vial MRA on [0, 1] derived from Daubechies' D4 (Ziegler §3.1.3,
-//! after [cohe93a]), boundary functions included.
+//! after Cohen–Daubechies–Vial 1993, `cohe93a`), boundary functions included.
 //!
 //! Notation: `φ` is the D4 scaling function shifted to the support `[-1, 2]`,
 //! `φ(x) = √2 Σ_{p=-1}^{2} h_p φ(2x − p)`, with Ziegler's `h_0..h_3` as `h_{-1}..h_2`;

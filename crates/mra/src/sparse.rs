@@ -39,7 +39,7 @@ impl<const D: usize> SparseLevel<D> {
     /// summed (in input order).
     #[must_use]
     pub fn from_pairs(level: u32, mut pairs: Vec<([usize; D], f64)>) -> Self {
-        pairs.sort_by(|a, b| a.0.cmp(&b.0));
+        pairs.sort_by_key(|a| a.0);
         let mut s = Self::new(level);
         s.keys.reserve(pairs.len());
         s.values.reserve(pairs.len());
