@@ -10,11 +10,26 @@
 //! * Closed-form equal-area maps: [`Parallelogram`] (the affine Λ of §3.3),
 //!   [`Cylinder`], [`Cone`] `(θ, φ²)`, [`Sphere`] `(θ, sin φ)` (Appendix A.1).
 //!
+//! * [`Spheroid`] (prolate and oblate, Appendix A.1, stable as e → 0 and e → 1) and
+//!   ring [`Torus`] patches with general radii (§3.1.3; numerical inverse by
+//!   safeguarded Newton).
+//! * Numerical equal-area maps via eq. (2) (cumulative area by composite Gauss rules,
+//!   monotone inversion): [`Revolution`], [`GeneralizedCylinder`],
+//!   [`TangentDevelopable`] (Appendix A.2), and bicubic [`BezierPatch`]es.
+//! * [`mep`] — convex hull and minimal enclosing parallelogram of point sets and of
+//!   boundaries with circular arcs (§3.2).
+//! * [`DirectionMap`]s — hemisphere ↔ square (Glossy §3.3 [`GlossyHemisphere`],
+//!   Shirley–Chiu [`ConcentricHemisphere`]) and sphere ↔ square
+//!   ([`OctahedralSphere`]), with solid-angle Jacobians.
+//!
 //! All lengths are in world units and all maps are scale covariant (tested for sizes
 //! 1e-4 … 1e4).
 
+mod bezier_patch;
+mod curves;
 mod direction;
 mod error;
+mod flat;
 mod frame;
 pub mod mep;
 mod numeric;
@@ -24,11 +39,14 @@ mod spheroid;
 mod surface;
 mod torus;
 
+pub use bezier_patch::BezierPatch;
+pub use curves::{BezierCurve, Cardioid, Curve, Helix};
 pub use direction::{
     ConcentricHemisphere, DirectionMap, GlossyHemisphere, OctahedralSphere,
     concentric_disc_to_square, concentric_square_to_disc,
 };
 pub use error::ParamError;
+pub use flat::{GeneralizedCylinder, Revolution, TangentDevelopable};
 pub use frame::{Aabb, Frame, SurfacePoint};
 pub use mep::{
     BoundarySegment, convex_hull, min_enclosing_parallelogram,

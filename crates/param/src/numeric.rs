@@ -3,9 +3,6 @@
 //! Gauss–Legendre rules (VirtualMesh §3.1.2 eq. (2)), and a damped Gauss–Newton
 //! closest-point solver for surface inverses that have no closed form.
 
-// reason: used by the numerical surfaces being added next (revolution, torus, Bézier)
-#![allow(dead_code)]
-
 use glam::{DVec2, DVec3};
 use wavelux_quadrature::GaussLegendre;
 
@@ -231,6 +228,62 @@ pub(crate) fn closest_point(
         }
     }
     q.is_finite().then_some(q)
+}
+
+/// Parameter of the point of a planar curve `t ↦ c(t)` nearest to `q`: best of
+/// `samples + 1` samples on `[t0, t1]`, then damped Newton on `(c − q)·c' = 0`, allowed
+/// to leave the interval by its length. `f` returns c, c', c''.
+pub(crate) fn closest_on_curve(
+    t0: f64,
+    t1: f64,
+    samples: usize,
+    q: DVec2,
+    f: impl Fn(f64) -> (DVec2, DVec2, DVec2),
+) -> f64 {
+    let span = t1 - t0;
+    let mut best = (f64::INFINITY, t0);
+    for i in 0..=samples {
+        let t = t0 + span * i as f64 / samples as f64;
+        let d = (f(t).0 - q).length_squared();
+        if d < best.0 {
+            best = (d, t);
+        }
+    }
+    let (mut t, mut err) = (best.1, best.0);
+    let (lo, hi) = (t0 - span, t1 + span);
+    for _ in 0..100 {
+        let (c, d1, d2) = f(t);
+        let g = (c - q).dot(d1);
+        let h = d1.length_squared() + (c - q).dot(d2);
+        let mut step = if h > 0.0 {
+            -g / h
+        } else {
+            -g / d1.length_squared().max(f64::MIN_POSITIVE)
+        };
+        if !step.is_finite() {
+            break;
+        }
+        let mut accepted = false;
+        for _ in 0..40 {
+            let tn = (t + step).clamp(lo, hi);
+            let en = (f(tn).0 - q).length_squared();
+            if en <= err {
+                let moved = (tn - t).abs();
+                t = tn;
+                err = en;
+                accepted = true;
+                if moved <= 1e-15 * span.abs().max(t.abs()) {
+                    return t;
+                }
+                break;
+            }
+            step *= 0.5;
+        }
+        if !accepted {
+            break;
+        }
+    }
+    t
 }
 
 #[cfg(test)]

@@ -84,6 +84,14 @@ pub enum SurfaceShape<'a> {
     Spheroid(&'a crate::Spheroid),
     /// Ring torus patch.
     Torus(&'a crate::Torus),
+    /// General surface of revolution.
+    Revolution(&'a crate::Revolution),
+    /// Generalized cylinder.
+    GeneralizedCylinder(&'a crate::GeneralizedCylinder),
+    /// Tangent developable.
+    TangentDevelopable(&'a crate::TangentDevelopable),
+    /// Bicubic Bézier patch.
+    BezierPatch(&'a crate::BezierPatch),
 }
 
 /// Linear map of `s ∈ [0, 1]` onto `[a, b]`.
