@@ -15,7 +15,10 @@
 //! - [`simplex`]: Stroud conical-product rules on triangles and polar rules on disks;
 //! - [`masked`]: cell-centred `n×n` rules and masked rules whose weights are the real
 //!   area of each cell of a trimmed support (VirtualMesh §4.2, Fig. 7);
+//! - [`adaptive`]: adaptive Gauss–Kronrod (1D) and Genz–Malik (2..=10 D) cubature with
+//!   error estimates, for reference values.
 
+pub mod adaptive;
 pub mod gauss;
 pub mod jacobi;
 pub mod masked;
@@ -23,6 +26,7 @@ pub mod rule;
 pub mod simplex;
 pub mod singular;
 
+pub use adaptive::{Estimate, GaussKronrod, Tolerance, genz_malik, integrate_1d};
 pub use gauss::GaussLegendre;
 pub use jacobi::GaussJacobi;
 pub use masked::{CellFractions, Disk, Polygon, SignedDistance};
