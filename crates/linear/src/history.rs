@@ -132,6 +132,10 @@ pub struct Convergence {
     /// extra operator application that is *not* counted in [`Work`]. Use this to
     /// check for drift of recursively updated residuals.
     pub final_relative_residual: f64,
+    /// Table 2.1 overrelaxation only: updates where the safeguard replaced the
+    /// method's step by the plain Southwell step (see [`crate::relaxation`]);
+    /// 0 for every other method.
+    pub safeguarded_updates: u64,
 }
 
 impl Convergence {

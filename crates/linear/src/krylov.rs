@@ -170,12 +170,12 @@ pub fn gmres<A: Operator + ?Sized>(
                 None
             };
             let converged = rec.record(resid, x_now.as_deref())?;
-            if converged {
-                outcome = Some(StopReason::Converged);
-                break;
-            }
             if happy {
                 outcome = Some(StopReason::HappyBreakdown);
+                break;
+            }
+            if converged {
+                outcome = Some(StopReason::Converged);
                 break;
             }
             if rec.next_iteration() > opts.max_iterations {

@@ -16,6 +16,25 @@
 //! channel-independent; only `K` with per-channel reflectance differs, in which case
 //! one operator per channel is used).
 //!
+//! # Example
+//!
+//! ```
+//! use nalgebra::DMatrix;
+//! use wavelux_linear::{DenseOperator, IdentityMinus, SolverOptions, gmres, picard};
+//!
+//! // Two facing patches, ρ = 0.5, form factor 0.8 each way: K = R F.
+//! let k = DenseOperator::new(DMatrix::from_row_slice(2, 2, &[0.0, 0.4, 0.4, 0.0]))?;
+//! let emission = [1.0, 0.0];
+//! let opts = SolverOptions::default().with_tolerance(1e-12);
+//! let p = picard(&k, &emission, &opts)?; // matrix-free x = b + K x
+//! let g = gmres(&IdentityMinus::new(&k), &emission, &opts)?; // (I − K) x = b
+//! assert!(p.history.converged && g.history.converged);
+//! assert!((g.x[0] - 1.0 / 0.84).abs() < 1e-12);
+//! // GMRES needed fewer operator applications than Picard.
+//! assert!(g.history.work().applications < p.history.work().applications);
+//! # Ok::<(), wavelux_linear::LinearError>(())
+//! ```
+//!
 //! # Records
 //!
 //! Every solver returns a [`Solve`] whose [`Convergence`] has one
@@ -42,7 +61,7 @@ mod util;
 pub use error::{LinearError, Unsupported};
 pub use history::{Convergence, IterationRecord, Method, Solve, SolverOptions, StopReason, Work};
 pub use krylov::{bicgstab, cg, cgnr, gmres};
-pub use operator::{CsrMatrix, DenseOperator, IdentityMinus, Operator};
+pub use operator::{CsrMatrix, DenseOperator, FnOperator, IdentityMinus, Operator};
 pub use relaxation::{
     OverrelaxationKind, ProgressiveSolve, gauss_seidel, overrelaxation, progressive_refinement,
     sor, southwell,

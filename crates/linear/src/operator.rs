@@ -391,3 +391,34 @@ impl<K: Operator> Operator for IdentityMinus<K> {
         Ok(())
     }
 }
+
+/// A matrix-free operator from a closure `(x, y) ↦ y = A x`: the form the
+/// hierarchical (wavelet) solvers use, where only products are available (Ziegler
+/// §2.3.4). It supports [`Operator::apply`] only; Gauss–Seidel-like methods report
+/// [`Unsupported`] on it, Krylov methods except CGNR work.
+pub struct FnOperator<F> {
+    n: usize,
+    f: F,
+}
+
+impl<F: Fn(&[f64], &mut [f64])> FnOperator<F> {
+    /// Wraps `f`, which must overwrite all of `y` (length `n`) with `A x`.
+    pub fn new(n: usize, f: F) -> Self {
+        Self { n, f }
+    }
+}
+
+impl<F> std::fmt::Debug for FnOperator<F> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FnOperator").field("n", &self.n).finish()
+    }
+}
+
+impl<F: Fn(&[f64], &mut [f64])> Operator for FnOperator<F> {
+    fn dim(&self) -> usize {
+        self.n
+    }
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        (self.f)(x, y)
+    }
+}

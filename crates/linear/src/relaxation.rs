@@ -34,13 +34,6 @@
 //!   writes the entries of `F̃_i` as `ρ_k f_kl` although his `F` already contains
 //!   `R` (`F = R G`, eq. (2.16)); we read them as `K_kl`, which is what makes
 //!   `Σ_j F̃_iʲ ≈ I + F` in the table hold.
-//!   *Deviation*: with the table's selection `argmax A_i |r_i|` the literal step
-//!   stalls. After updating `i` the same `i` often still has the largest residual
-//!   (`r_i` becomes `−(back·r_i + g)/(1 − back)`, where `g = Σ_{l≠i} K_il r_l` and
-//!   `back = Σ_{l≠i} K_il K_li`), and the step for the same `i` is then exactly 0
-//!   (the step is idempotent: substitute the updated `r` into the formula). Our tests
-//!   hit this on closed 3-patch scenes. The index updated last is therefore excluded
-//!   from the next selection.
 //! * Feda: `M̄ = Σ_i F̂ⁱ`. Because `F̂² = ρ̄ F̂` with `ρ̄ = Σ_l A_l ρ_l / |S|`, this is
 //!   `I + F̂ / (1 − ρ̄)`, the table's closed form. *Ambiguity*: Ziegler defines
 //!   `ρ_avg = Σ ρ_i / n`, which makes the closed form exact only for equal areas; we
@@ -61,6 +54,31 @@
 //!   `D_A (I − F̂)⁻¹ r`, i.e. `s_k = A_k (r_k + ρ_k u/(1 − ρ̄)) = A_k Δ_k^Feda`: the
 //!   largest area-weighted Feda step, consistent with PR's `D_A r = D_A M̄ r`. All
 //!   three readings coincide for unit areas up to the placement of the inverse.
+//! * *Safeguards (a deviation)*: selection by the largest residual and the step
+//!   `(M̄ r)_i` do not match, and the literal methods can stall or cycle. Gortler's
+//!   step is idempotent: re-selecting the index just updated, which often still
+//!   has the largest residual (`r_i` becomes `−(back·r_i + g)/(1 − back)` with
+//!   `g = Σ_{l≠i} K_il r_l`, `back = Σ_{l≠i} K_il K_li`), gives `Δ = 0` exactly.
+//!   Shao's repeated step decays geometrically towards a state with
+//!   `r_i + (K r)_i = 0` while `r_i ≠ 0` (residuals frozen at ≈ 3e-5 on a closed
+//!   3-patch scene in our tests), and Xu can alternate `+δ, −δ` on one index. Two
+//!   rules, applied to the four Table 2.1 methods only:
+//!   1. the index updated last is excluded from the next selection;
+//!   2. a step whose effective relaxation factor `Δ m_ii / r_i` is below 1/2
+//!      (including zero or the wrong sign) is replaced by the plain Southwell step
+//!      `r_i / m_ii`; such updates are counted in
+//!      [`crate::Convergence::safeguarded_updates`].
+//!
+//!   Overshooting (factor > 1, the point of these methods) is never limited. With
+//!   both rules and correct area weights, 3000 random closed scenes converged to
+//!   `1e-13` for all four methods; without rule 1, Xu failed on 16 of 2000.
+//! * *Divergence*: Feda and Xu assume a closed scene (`F̂` replaces `F` in the
+//!   ambient part). In open scenes, or with area weights that do not match the
+//!   form factors, the overshoot can exceed a factor of 2 and the iteration
+//!   diverges (ends in [`LinearError::NonFiniteIterate`]); e.g. two patches that
+//!   do not see each other, `A = (1.77, 0.5)`, `ρ₀ = 0.89`: each Feda step on
+//!   patch 0 (while patch 1 has no unshot light) multiplies its residual by
+//!   `−ρ₀ A₀ / (|S| (1 − ρ̄)) ≈ −2.3`.
 //! * The formulas are as printed, derived for `m_ii = 1`; Shao and Xu include
 //!   `K_ii r_i` in `(K r)_i`, Gortler excludes the diagonal as `F̃_i` does.
 //!
@@ -208,6 +226,18 @@ pub fn overrelaxation<K: Operator + ?Sized>(
     Ok(run.solve)
 }
 
+/// Smallest effective relaxation factor `Δ m_ii / r_i` accepted from a Table 2.1
+/// step before the safeguard substitutes the plain step `r_i / m_ii`.
+const SAFEGUARD: f64 = 0.5;
+
+/// Like [`argmax_abs`] but never returns `skip` (unless it is the only index).
+fn argmax_abs_except(v: impl Iterator<Item = f64>, skip: Option<usize>) -> usize {
+    argmax_abs(
+        v.enumerate()
+            .map(|(k, x)| if Some(k) == skip { 0.0 } else { x }),
+    )
+}
+
 fn argmax_abs(v: impl Iterator<Item = f64>) -> usize {
     let mut best = 0;
     let mut best_v = -1.0;
@@ -272,7 +302,9 @@ fn relax<K: Operator + ?Sized>(
     let mut scratch = vec![0.0; n];
     let mut displayed_errors = Vec::new();
     let mut next_cyclic = 0usize;
-    let mut last_index: Option<usize> = None;
+    let mut safeguarded = 0u64;
+    // Table 2.1 methods never update the same index twice in a row (see docs).
+    let mut last: Option<usize> = None;
 
     let x_hat =
         |x: &[f64], r: &[f64]| -> Vec<f64> { x.iter().zip(r).map(|(a, b)| a + b).collect() };
@@ -316,21 +348,9 @@ fn relax<K: Operator + ?Sized>(
                     next_cyclic = (next_cyclic + 1) % n;
                     i
                 }
-                Rule::Greedy | Rule::Over(OverrelaxationKind::Shao) => {
-                    argmax_abs(r.iter().zip(&areas).map(|(ri, a)| ri * a))
-                }
-                Rule::Over(OverrelaxationKind::Gortler) => {
-                    // The Gortler step is idempotent: re-selecting the index just
-                    // updated yields Δ = 0 exactly, so it is skipped (n ≥ 2).
-                    let i = argmax_abs(r.iter().zip(&areas).enumerate().map(|(k, (ri, a))| {
-                        if Some(k) == last_index && n > 1 {
-                            0.0
-                        } else {
-                            ri * a
-                        }
-                    }));
-                    last_index = Some(i);
-                    i
+                Rule::Greedy => argmax_abs(r.iter().zip(&areas).map(|(ri, a)| ri * a)),
+                Rule::Over(OverrelaxationKind::Shao | OverrelaxationKind::Gortler) => {
+                    argmax_abs_except(r.iter().zip(&areas).map(|(ri, a)| ri * a), last)
                 }
                 Rule::Over(OverrelaxationKind::Feda | OverrelaxationKind::Xu) => {
                     let rho = rho.expect("checked above");
@@ -338,7 +358,7 @@ fn relax<K: Operator + ?Sized>(
                     let c: f64 = r.iter().zip(&areas).map(|(ri, a)| a * ri).sum::<f64>()
                         / total_area
                         / (1.0 - rb);
-                    argmax_abs((0..n).map(|k| areas[k] * (r[k] + rho[k] * c)))
+                    argmax_abs_except((0..n).map(|k| areas[k] * (r[k] + rho[k] * c)), last)
                 }
             };
             k.column(i, &mut col).map_err(unsupported)?;
@@ -382,12 +402,26 @@ fn relax<K: Operator + ?Sized>(
                     }
                 }
             };
+            // Safeguard (see module docs): a Table 2.1 step whose effective
+            // relaxation factor is below 1/2 is replaced by the plain step.
+            let delta = if matches!(rule, Rule::Over(_)) {
+                let plain = r[i] / (1.0 - kii);
+                if plain != 0.0 && delta / plain < SAFEGUARD {
+                    safeguarded += 1;
+                    plain
+                } else {
+                    delta
+                }
+            } else {
+                delta
+            };
             if !delta.is_finite() {
                 return Err(LinearError::NonFiniteIterate {
                     method,
                     iteration: rec.next_iteration(),
                 });
             }
+            last = Some(i);
             x[i] += delta;
             for &(j, v) in &col {
                 r[j] += v * delta;
@@ -401,7 +435,8 @@ fn relax<K: Operator + ?Sized>(
         let xh = x_hat(&x, &r);
         let displayed = displayed_of(&xh, ambient);
         let fin = fixed_point_residual_norm(k, b, &xh);
-        let solve = rec.finish(xh, reason, fin);
+        let mut solve = rec.finish(xh, reason, fin);
+        solve.history.safeguarded_updates = safeguarded;
         Ok(ProgressiveSolve {
             solve,
             unshot: r,
@@ -411,7 +446,8 @@ fn relax<K: Operator + ?Sized>(
         })
     } else {
         let fin = fixed_point_residual_norm(k, b, &x);
-        let solve = rec.finish(x, reason, fin);
+        let mut solve = rec.finish(x, reason, fin);
+        solve.history.safeguarded_updates = safeguarded;
         Ok(ProgressiveSolve {
             solve,
             unshot: r,

@@ -208,6 +208,7 @@ impl<'a> Recorder<'a> {
                 converged,
                 reason,
                 final_relative_residual,
+                safeguarded_updates: 0,
             },
         }
     }

@@ -70,7 +70,7 @@ fn run_all(sys: &Radiosity, tol: f64, closed: bool) -> Vec<(&'static str, Vec<f6
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(64))]
+    #![proptest_config(ProptestConfig::with_cases(256))]
 
     #[test]
     fn every_method_reaches_the_direct_solution(sys in radiosity_strategy()) {

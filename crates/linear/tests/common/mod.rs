@@ -182,6 +182,42 @@ impl Radiosity {
     }
 }
 
+impl Radiosity {
+    /// Deterministic random closed enclosure with constant reflectance `rho`.
+    pub fn seeded_closed(seed: u64, n: usize, rho: f64) -> Self {
+        let mut rng = Pcg64::seed_from_u64(seed);
+        let upper: Vec<f64> = (0..n * (n - 1) / 2)
+            .map(|_| rng.random_range(0.05..1.0))
+            .collect();
+        let mut b: Vec<f64> = (0..n)
+            .map(|i| {
+                if i % 4 == 0 {
+                    rng.random_range(0.5..1.0)
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        b[0] = 1.0;
+        Self::closed(&upper, vec![rho; n], b)
+    }
+}
+
+impl Radiosity {
+    /// The same closed geometry with other reflectances.
+    pub fn closed_from(other: &Radiosity, rho: Vec<f64>) -> Self {
+        let k = DMatrix::from_diagonal(&DVector::from_vec(rho.clone())) * &other.f;
+        Self {
+            n: other.n,
+            areas: other.areas.clone(),
+            rho,
+            f: other.f.clone(),
+            k,
+            b: other.b.clone(),
+        }
+    }
+}
+
 /// Proptest strategy for closed enclosures (rows of `F` sum to 1): `n ∈ [3, 14]`,
 /// couplings in `[0.05, 1]` (every patch sees every other), `ρ ∈ (0.01, 0.95)`.
 pub fn closed_radiosity_strategy() -> impl Strategy<Value = Radiosity> {
