@@ -1,1 +1,65 @@
-//! wavelux-scene: see the crate description; being built (this placeholder is replaced by the crate's modules).
+//! wavelux-scene: the scene model, its loaders and the built-in scenes.
+//!
+//! - [`scene`]: [`Scene`], [`Surface`] (exact [`Shape`] + [`Material`] +
+//!   [`Sidedness`]), media, cameras, method defaults;
+//! - [`material`]: Lambertian reflectance and emission (RGB, optionally textured),
+//!   Ward parameters (Glossy §6) and directional emitters;
+//! - [`shape`]: triangles, parallelograms, triangle meshes with exact parallelogram
+//!   merging, complex polygons with arcs and holes (VirtualMesh §3.2), Bézier patches;
+//! - [`medium`]: voxel grids of source, opacity and albedo (GlobalCube §2.1, §3.1);
+//! - [`gltf_load`]: glTF 2.0 (`.gltf`, `.glb`) loader;
+//! - [`builtin`]: Cornell box, Ziegler §4.1.1 and §4.2.1 scenes, white furnace.
+//!
+//! # Radiometric conventions
+//!
+//! Surfaces are Lambertian (unless a Ward lobe is attached for glossy methods).
+//! [`Material::emission`] is the emitted radiant **exitance** `E` in W/m² per RGB
+//! channel (radiance `E/π`), and radiosity satisfies `B = E + ρ·H`. glTF's
+//! `emissiveFactor × KHR_materials_emissive_strength` is read as emitted radiance and
+//! converted with `E = π × emissive`; the native format states `E` directly. One
+//! convention for every loader.
+//!
+//! A one-sided surface reflects and emits on its front only and its back is a black
+//! occluder; a two-sided surface has two independent sides.
+
+// reason: `!(x > 0.0)` is the idiom that also rejects NaN, which input validation needs.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod builtin;
+pub mod camera;
+pub mod error;
+pub mod gltf_load;
+pub mod material;
+pub mod medium;
+pub mod scene;
+pub mod shape;
+
+use std::path::Path;
+
+pub use camera::{Camera, Projection};
+pub use error::{SceneError, Warning, WarningKind};
+pub use gltf_load::{GltfOptions, load_gltf, load_gltf_slice};
+pub use material::{
+    EmissionProfile, Material, ReflectancePolicy, Rgb, Texture, TextureRef, WardParams,
+};
+pub use medium::Medium;
+pub use scene::{DefaultValue, MaterialId, Scene, Sidedness, Surface};
+pub use shape::{
+    BezierPatch, Loop, LoopEdge, MeshElement, PlaneFrame, PolygonShape, Shape, TriangleMesh,
+};
+
+/// Loads a scene file, choosing the loader by extension: `.gltf`/`.glb` (glTF 2.0 with
+/// default [`GltfOptions`]).
+pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+    let path = path.as_ref();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("gltf" | "glb") => load_gltf(path, &GltfOptions::default()),
+        _ => Err(SceneError::UnknownFormat {
+            file: path.display().to_string(),
+        }),
+    }
+}

@@ -1,0 +1,269 @@
+//! The scene model: named surfaces (exact shape + material + sidedness), materials,
+//! textures, participating media, cameras and method defaults.
+//!
+//! Sidedness follows the glTF 2.0 `doubleSided` semantics made radiometric: a
+//! one-sided surface reflects and emits only on its front side, and its back is a
+//! black occluder (it blocks light but never reflects or emits); a double-sided
+//! surface has two *independent* sides, each with its own radiosity unknown and its
+//! own material (glTF: the same material on both sides).
+//!
+//! The model is made to grow without breaking changes: enums are `#[non_exhaustive]`,
+//! glossy parameters live in [`crate::Material::ward`], media are separate from
+//! surfaces, and meshless methods (Meshless §5.1: they need only ray casting and the
+//! local reflectance) read the same surfaces through their shapes and materials.
+
+use std::collections::{BTreeMap, HashSet};
+
+use crate::camera::Camera;
+use crate::error::{SceneError, Warning};
+use crate::material::{Material, Texture};
+use crate::medium::Medium;
+use crate::shape::Shape;
+
+/// Index of a material in [`Scene::materials`].
+pub type MaterialId = usize;
+
+/// Which sides of a surface take part in light transport.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Sidedness {
+    /// Only the front side reflects and emits; the back is a black occluder.
+    OneSided,
+    /// Both sides reflect and emit, independently; the back side uses `back`.
+    TwoSided {
+        /// Material of the back side.
+        back: MaterialId,
+    },
+}
+
+/// A named surface: exact shape, front material and sidedness.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Surface {
+    /// Unique name within the scene.
+    pub name: String,
+    /// Exact geometry.
+    pub shape: Shape,
+    /// Material of the front side.
+    pub material: MaterialId,
+    /// Sidedness.
+    pub sides: Sidedness,
+}
+
+/// A value of a method default (from the native format's `[defaults]` table).
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum DefaultValue {
+    /// A boolean.
+    Bool(bool),
+    /// An integer.
+    Int(i64),
+    /// A float.
+    Float(f64),
+    /// A string.
+    Str(String),
+}
+
+/// A complete scene.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Scene {
+    /// Name of the scene (file stem or built-in name).
+    pub name: String,
+    /// Surfaces, names unique.
+    pub surfaces: Vec<Surface>,
+    /// Materials, names unique.
+    pub materials: Vec<Material>,
+    /// Decoded textures referenced by materials.
+    pub textures: Vec<Texture>,
+    /// Participating media.
+    pub media: Vec<Medium>,
+    /// Cameras.
+    pub cameras: Vec<Camera>,
+    /// Method defaults (`basis = "multiwavelet"`, `epsilon = 1e-4`, ...), free-form;
+    /// the solvers document the keys they read.
+    pub defaults: BTreeMap<String, DefaultValue>,
+    /// Non-fatal problems found while loading.
+    pub warnings: Vec<Warning>,
+}
+
+impl Scene {
+    /// An empty scene with a name.
+    pub fn new(name: impl Into<String>) -> Self {
+        Self {
+            name: name.into(),
+            ..Self::default()
+        }
+    }
+
+    /// Adds a material and returns its id. The name is made unique by appending
+    /// `#2`, `#3`, ... if needed.
+    pub fn add_material(&mut self, mut material: Material) -> MaterialId {
+        material.name = unique_name(&material.name, self.materials.iter().map(|m| &m.name));
+        self.materials.push(material);
+        self.materials.len() - 1
+    }
+
+    /// Adds a surface; the name is made unique like [`Scene::add_material`]'s.
+    pub fn add_surface(&mut self, mut surface: Surface) {
+        surface.name = unique_name(&surface.name, self.surfaces.iter().map(|s| &s.name));
+        self.surfaces.push(surface);
+    }
+
+    /// The material with this name.
+    pub fn material_id(&self, name: &str) -> Option<MaterialId> {
+        self.materials.iter().position(|m| m.name == name)
+    }
+
+    /// The surface with this name.
+    pub fn surface(&self, name: &str) -> Option<&Surface> {
+        self.surfaces.iter().find(|s| s.name == name)
+    }
+
+    /// Total area of all surfaces (one side each).
+    pub fn total_area(&self) -> f64 {
+        self.surfaces.iter().map(|s| s.shape.area()).sum()
+    }
+
+    /// Total emitted power `Σ area × E` per channel over all emitting sides (W), for
+    /// untextured emission (textured emission uses the texture mean).
+    pub fn emitted_power(&self) -> [f64; 3] {
+        let mut p = [0.0; 3];
+        for s in &self.surfaces {
+            let a = s.shape.area();
+            let mut add = |m: MaterialId| {
+                let mat = &self.materials[m];
+                let mut e = mat.emission;
+                if let Some(t) = mat.emission_texture {
+                    e = e.times(self.textures[t.texture].mean());
+                }
+                for c in 0..3 {
+                    p[c] += a * e.0[c];
+                }
+            };
+            add(s.material);
+            if let Sidedness::TwoSided { back } = s.sides {
+                add(back);
+            }
+        }
+        p
+    }
+
+    /// Appends another scene: materials, textures, surfaces, media and cameras, with
+    /// `prefix` prepended to every incoming surface, material and medium name; names
+    /// that still collide get `#2`, `#3`, ... . Defaults of `self` win; warnings are
+    /// concatenated.
+    pub fn merge(&mut self, other: Scene, prefix: &str) {
+        let tex_base = self.textures.len();
+        self.textures.extend(other.textures);
+        let mut map = Vec::with_capacity(other.materials.len());
+        for mut m in other.materials {
+            m.name = format!("{prefix}{}", m.name);
+            for t in [&mut m.reflectance_texture, &mut m.emission_texture]
+                .into_iter()
+                .flatten()
+            {
+                t.texture += tex_base;
+            }
+            map.push(self.add_material(m));
+        }
+        for mut s in other.surfaces {
+            s.name = format!("{prefix}{}", s.name);
+            s.material = map[s.material];
+            if let Sidedness::TwoSided { back } = &mut s.sides {
+                *back = map[*back];
+            }
+            self.add_surface(s);
+        }
+        for mut m in other.media {
+            m.name = unique_name(
+                &format!("{prefix}{}", m.name),
+                self.media.iter().map(|x| &x.name),
+            );
+            self.media.push(m);
+        }
+        self.cameras.extend(other.cameras);
+        for (k, v) in other.defaults {
+            self.defaults.entry(k).or_insert(v);
+        }
+        self.warnings.extend(other.warnings);
+    }
+
+    /// Validates the whole scene: unique names, material ids in range, material
+    /// ranges ([`Material::validate`]), shapes ([`Shape::validate`]), texture
+    /// references and media. `file` names the source in errors.
+    pub fn validate(&self, file: &str) -> Result<(), SceneError> {
+        let mut seen = HashSet::new();
+        for m in &self.materials {
+            if !seen.insert(m.name.as_str()) {
+                return Err(SceneError::DuplicateName {
+                    file: file.into(),
+                    kind: "material".into(),
+                    name: m.name.clone(),
+                });
+            }
+            m.validate(file)?;
+            for t in [m.reflectance_texture, m.emission_texture]
+                .into_iter()
+                .flatten()
+            {
+                if t.texture >= self.textures.len() {
+                    return Err(SceneError::UnknownReference {
+                        file: file.into(),
+                        element: format!("material {:?}", m.name),
+                        kind: "texture".into(),
+                        name: t.texture.to_string(),
+                    });
+                }
+            }
+        }
+        let mut seen = HashSet::new();
+        for s in &self.surfaces {
+            let element = format!("surface {:?}", s.name);
+            if !seen.insert(s.name.as_str()) {
+                return Err(SceneError::DuplicateName {
+                    file: file.into(),
+                    kind: "surface".into(),
+                    name: s.name.clone(),
+                });
+            }
+            let mut ids = vec![s.material];
+            if let Sidedness::TwoSided { back } = s.sides {
+                ids.push(back);
+            }
+            for id in ids {
+                if id >= self.materials.len() {
+                    return Err(SceneError::UnknownReference {
+                        file: file.into(),
+                        element,
+                        kind: "material".into(),
+                        name: id.to_string(),
+                    });
+                }
+            }
+            s.shape.validate(file, &element)?;
+        }
+        let mut seen = HashSet::new();
+        for m in &self.media {
+            if !seen.insert(m.name.as_str()) {
+                return Err(SceneError::DuplicateName {
+                    file: file.into(),
+                    kind: "medium".into(),
+                    name: m.name.clone(),
+                });
+            }
+            m.validate(file)?;
+        }
+        Ok(())
+    }
+}
+
+/// `name` if unused, else `name#2`, `name#3`, ... (the first free one).
+pub(crate) fn unique_name<'a>(name: &str, existing: impl Iterator<Item = &'a String>) -> String {
+    let taken: HashSet<&str> = existing.map(|s| s.as_str()).collect();
+    if !taken.contains(name) {
+        return name.to_string();
+    }
+    (2..)
+        .map(|k| format!("{name}#{k}"))
+        .find(|n| !taken.contains(n.as_str()))
+        .unwrap_or_else(|| name.to_string())
+}

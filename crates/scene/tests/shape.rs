@@ -1,0 +1,204 @@
+//! Shape properties: exact parallelogram merging (area preserved, deterministic),
+//! polygon areas with arcs and holes against closed forms, Bézier area of a
+//! bilinear (flat) patch, degenerate handling.
+
+use glam::{DVec2, DVec3};
+use proptest::prelude::*;
+use wavelux_scene::shape::{TriangleMesh, is_degenerate};
+use wavelux_scene::{BezierPatch, Loop, LoopEdge, PlaneFrame, PolygonShape, Shape};
+
+fn v3() -> impl Strategy<Value = DVec3> {
+    (-10.0..10.0f64, -10.0..10.0f64, -10.0..10.0f64).prop_map(|(x, y, z)| DVec3::new(x, y, z))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(128))]
+
+    /// A parallelogram split along either diagonal merges back into one
+    /// parallelogram of the same area and orientation.
+    #[test]
+    fn split_parallelogram_merges(o in v3(), u in v3(), v in v3(), diag in 0..2usize) {
+        prop_assume!(!is_degenerate(u, v));
+        let pos = vec![o, o + u, o + u + v, o + v];
+        let tris = if diag == 0 { vec![[0, 1, 2], [0, 2, 3]] } else { vec![[0, 1, 3], [1, 2, 3]] };
+        let b = TriangleMesh::build(pos, vec![], &tris, "t", "m").unwrap();
+        prop_assert_eq!(b.dropped, 0);
+        prop_assert_eq!(b.mesh.parallelograms.len(), 1);
+        prop_assert!(b.mesh.triangles.is_empty());
+        let area: f64 = b.mesh.elements().map(|e| e.area()).sum();
+        prop_assert!((area - u.cross(v).length()).abs() <= 1e-9 * u.cross(v).length().max(1.0));
+        let n = b.mesh.elements().next().unwrap().normal();
+        prop_assert!(n.dot(u.cross(v)) > 0.0);
+    }
+
+    /// A general quad (not a parallelogram) stays two triangles, area preserved.
+    #[test]
+    fn skewed_quad_does_not_merge(o in v3(), u in v3(), v in v3(), d in 0.01..1.0f64) {
+        prop_assume!(!is_degenerate(u, v));
+        let pos = vec![o, o + u, o + (1.0 + d) * (u + v), o + v];
+        let tris = vec![[0, 1, 2], [0, 2, 3]];
+        let b = TriangleMesh::build(pos.clone(), vec![], &tris, "t", "m").unwrap();
+        prop_assume!(b.dropped == 0);
+        prop_assert!(b.mesh.parallelograms.is_empty());
+        let tri = |a: DVec3, b: DVec3, c: DVec3| 0.5 * (b - a).cross(c - a).length();
+        let want = tri(pos[0], pos[1], pos[2]) + tri(pos[0], pos[2], pos[3]);
+        let got: f64 = b.mesh.elements().map(|e| e.area()).sum();
+        prop_assert!((got - want).abs() <= 1e-9 * want.max(1.0));
+    }
+
+    /// Inconsistently oriented neighbours (one flipped) never merge.
+    #[test]
+    fn flipped_neighbour_does_not_merge(o in v3(), u in v3(), v in v3()) {
+        prop_assume!(!is_degenerate(u, v));
+        let pos = vec![o, o + u, o + u + v, o + v];
+        let b = TriangleMesh::build(pos, vec![], &[[0, 1, 2], [0, 3, 2]], "t", "m").unwrap();
+        prop_assert!(b.mesh.parallelograms.is_empty());
+    }
+
+    /// Disk of radius r with a square hole: π r² − s².
+    #[test]
+    fn polygon_with_arc_and_hole(r in 0.5..5.0f64, s in 0.01..0.5f64, cx in -3.0..3.0f64) {
+        let c = DVec2::new(cx, 1.0);
+        let p = PolygonShape {
+            frame: PlaneFrame { origin: DVec3::ZERO, u: DVec3::X, v: DVec3::Y },
+            outer: Loop::circle(c, r),
+            holes: vec![Loop::polygon(&[c, c + DVec2::new(s, 0.0), c + DVec2::splat(s), c + DVec2::new(0.0, s)])],
+        };
+        let want = std::f64::consts::PI * r * r - s * s;
+        prop_assert!((p.area() - want).abs() < 1e-12 * want.max(1.0));
+        Shape::Polygon(p).validate("t", "p").unwrap();
+    }
+}
+
+#[test]
+fn half_disk_and_clockwise_arcs() {
+    // Half disk: segment from (−1,0) to (1,0), then ccw arc back through (0,1).
+    let half = Loop {
+        edges: vec![
+            LoopEdge::Segment {
+                start: DVec2::new(-1.0, 0.0),
+            },
+            LoopEdge::Arc {
+                start: DVec2::new(1.0, 0.0),
+                center: DVec2::ZERO,
+                ccw: true,
+            },
+        ],
+    };
+    assert!((half.signed_area() - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+    // The same boundary traversed clockwise (arc cw from (−1,0) over the top to (1,0)).
+    let cw = Loop {
+        edges: vec![
+            LoopEdge::Arc {
+                start: DVec2::new(-1.0, 0.0),
+                center: DVec2::ZERO,
+                ccw: false,
+            },
+            LoopEdge::Segment {
+                start: DVec2::new(1.0, 0.0),
+            },
+        ],
+    };
+    assert!((cw.signed_area() + std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+    // An arc whose end is off its circle is rejected.
+    let bad = Shape::Polygon(PolygonShape {
+        frame: PlaneFrame {
+            origin: DVec3::ZERO,
+            u: DVec3::X,
+            v: DVec3::Y,
+        },
+        outer: Loop {
+            edges: vec![
+                LoopEdge::Segment {
+                    start: DVec2::new(-1.0, 0.0),
+                },
+                LoopEdge::Arc {
+                    start: DVec2::new(2.0, 0.0),
+                    center: DVec2::ZERO,
+                    ccw: true,
+                },
+            ],
+        },
+        holes: vec![],
+    });
+    assert!(bad.validate("f", "p").is_err());
+}
+
+#[test]
+fn bezier_area_of_flat_and_curved_patches() {
+    // Bicubic patch with control points on a regular grid of the plane: a 3 × 2
+    // rectangle (the Bézier map is then affine), area exact.
+    let mut control = Vec::new();
+    for i in 0..4 {
+        for j in 0..4 {
+            control.push(DVec3::new(i as f64, 2.0 * j as f64 / 3.0, 0.0));
+        }
+    }
+    let b = BezierPatch {
+        degree_u: 3,
+        degree_v: 3,
+        control,
+    };
+    assert!((Shape::Bezier(b.clone()).area() - 6.0).abs() < 1e-12);
+    // Quadratic-in-u cylinder-like patch: P(u, v) = (u, u², v) on [0,1]²; its area is
+    // the arc length of y = x² on [0, 1]: (2√5 + asinh 2)/4.
+    let b2 = BezierPatch {
+        degree_u: 2,
+        degree_v: 1,
+        control: vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(0.0, 0.0, 1.0),
+            DVec3::new(0.5, 0.0, 0.0),
+            DVec3::new(0.5, 0.0, 1.0),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(1.0, 1.0, 1.0),
+        ],
+    };
+    let want = (2.0 * 5f64.sqrt() + 2f64.asinh()) / 4.0;
+    assert!((Shape::Bezier(b2.clone()).area() - want).abs() < 1e-10);
+    let (p, du, dv) = b2.eval(0.5, 0.25);
+    assert!((p - DVec3::new(0.5, 0.25, 0.25)).length() < 1e-15);
+    assert!((du - DVec3::new(1.0, 1.0, 0.0)).length() < 1e-15);
+    assert!((dv - DVec3::Z).length() < 1e-15);
+    // Wrong control-point count is an error.
+    let mut bad = b2;
+    bad.control.pop();
+    assert!(Shape::Bezier(bad).validate("f", "b").is_err());
+}
+
+#[test]
+fn degenerate_and_non_finite_shapes_are_rejected() {
+    let z = Shape::parallelogram(DVec3::ZERO, DVec3::X, DVec3::X * 2.0);
+    assert!(matches!(
+        z.validate("f", "p"),
+        Err(wavelux_scene::SceneError::Degenerate { .. })
+    ));
+    let n = Shape::Triangle([DVec3::ZERO, DVec3::X, DVec3::new(f64::NAN, 1.0, 0.0)]);
+    assert!(matches!(
+        n.validate("f", "t"),
+        Err(wavelux_scene::SceneError::NonFinite { .. })
+    ));
+}
+
+#[test]
+fn transforms_keep_areas_and_orientation() {
+    let m = glam::DMat4::from_scale_rotation_translation(
+        DVec3::splat(2.0),
+        glam::DQuat::from_rotation_y(0.3),
+        DVec3::new(1.0, 2.0, 3.0),
+    );
+    let p = Shape::Polygon(PolygonShape {
+        frame: PlaneFrame {
+            origin: DVec3::ZERO,
+            u: DVec3::X,
+            v: DVec3::Y,
+        },
+        outer: Loop::circle(DVec2::ZERO, 1.0),
+        holes: vec![],
+    });
+    let t = p.transformed(&m).unwrap();
+    assert!((t.area() - 4.0 * p.area()).abs() < 1e-12);
+    // Non-similarity maps are refused for polygons.
+    let shear = glam::DMat4::from_scale(DVec3::new(1.0, 2.0, 1.0));
+    assert!(p.transformed(&shear).is_none());
+}
