@@ -19,10 +19,9 @@ use wavelux_param::SurfaceShape;
 use crate::bezier;
 use crate::poly;
 use crate::primitive::{
-    Aabb, BezierPatch, ComplexPolygon, Hit, Parallelogram, PatchSurface, Primitive, Ray, Triangle,
-    TrimmedPatch,
+    Aabb, BezierPatch, ComplexPolygon, Hit, Parallelogram, Primitive, Ray, Triangle, TrimmedPatch,
 };
-use crate::surface::{Frame, Surface};
+use wavelux_param::Parametrization;
 
 /// Relative parameter-space dilation of planar primitives (see the module docs).
 pub const PLANAR_DILATION: f64 = 1e-9;
@@ -217,69 +216,75 @@ pub fn implicit_roots(imp: Implicit, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -
         .collect()
 }
 
-fn frame_of(f: &wavelux_param::Frame) -> Frame {
-    Frame {
-        origin: f.origin(),
-        x: f.x_axis(),
-        y: f.y_axis(),
-        z: f.z_axis(),
+/// A local orthonormal frame (origin and axes in world coordinates).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LocalFrame {
+    /// Origin.
+    pub origin: DVec3,
+    /// Unit axes `x`, `y`, `z`.
+    pub axes: [DVec3; 3],
+}
+
+impl LocalFrame {
+    fn of(f: &wavelux_param::Frame) -> LocalFrame {
+        LocalFrame {
+            origin: f.origin(),
+            axes: [f.x_axis(), f.y_axis(), f.z_axis()],
+        }
+    }
+
+    /// Local coordinates of a world point.
+    pub fn to_local(&self, p: DVec3) -> DVec3 {
+        self.vec_to_local(p - self.origin)
+    }
+
+    /// Local components of a world vector.
+    pub fn vec_to_local(&self, d: DVec3) -> DVec3 {
+        DVec3::new(
+            d.dot(self.axes[0]),
+            d.dot(self.axes[1]),
+            d.dot(self.axes[2]),
+        )
     }
 }
 
-/// Local frame and implicit form of a surface, if it has one.
-pub fn implicit_of(s: &PatchSurface) -> Option<(Frame, Implicit)> {
-    match s {
-        PatchSurface::Analytic(a) => {
-            let f = *a.frame();
-            Some(match *a {
-                Surface::Sphere { radius, .. } => (f, Implicit::Sphere(radius)),
-                Surface::Spheroid { a, c, .. } => (f, Implicit::Spheroid(a, c)),
-                Surface::Cylinder { radius, .. } => (f, Implicit::Cylinder(radius)),
-                Surface::Cone { radius, height, .. } => {
-                    // Apex at z = height: shift the frame origin to the apex.
-                    let apex = Frame {
-                        origin: f.to_world(DVec3::new(0.0, 0.0, height)),
-                        ..f
-                    };
-                    (apex, Implicit::Cone(radius / height))
-                }
-                Surface::Torus { major, minor, .. } => (f, Implicit::Torus(major, minor)),
-            })
+/// Local frame and implicit form of a surface, if its shape has one (all current
+/// `wavelux-param` shapes do).
+pub fn implicit_of(s: &dyn Parametrization) -> Option<(LocalFrame, Implicit)> {
+    match s.shape() {
+        SurfaceShape::Parallelogram(pg) => {
+            let n = pg.e1().cross(pg.e2()).try_normalize()?;
+            let x = n.any_orthonormal_vector();
+            Some((
+                LocalFrame {
+                    origin: pg.origin(),
+                    axes: [x, n.cross(x), n],
+                },
+                Implicit::Plane,
+            ))
         }
-        PatchSurface::Param(p) => match p.shape() {
-            SurfaceShape::Parallelogram(pg) => {
-                let f = Frame::from_axis(pg.origin(), pg.e1().cross(pg.e2())).ok()?;
-                Some((f, Implicit::Plane))
-            }
-            SurfaceShape::Sphere(s) => Some((frame_of(s.frame()), Implicit::Sphere(s.radius()))),
-            SurfaceShape::Cylinder(c) => {
-                Some((frame_of(c.frame()), Implicit::Cylinder(c.radius())))
-            }
-            SurfaceShape::Cone(c) => {
-                Some((frame_of(c.frame()), Implicit::Cone(c.radius() / c.height())))
-            }
-            SurfaceShape::Spheroid(s) => Some((
-                frame_of(s.frame()),
-                Implicit::Spheroid(s.equatorial_semi_axis(), s.polar_semi_axis()),
-            )),
-            SurfaceShape::Torus(t) => Some((
-                frame_of(t.frame()),
-                Implicit::Torus(t.major_radius(), t.minor_radius()),
-            )),
-            _ => None,
-        },
+        SurfaceShape::Sphere(s) => Some((LocalFrame::of(s.frame()), Implicit::Sphere(s.radius()))),
+        SurfaceShape::Cylinder(c) => {
+            Some((LocalFrame::of(c.frame()), Implicit::Cylinder(c.radius())))
+        }
+        SurfaceShape::Cone(c) => Some((
+            LocalFrame::of(c.frame()),
+            Implicit::Cone(c.radius() / c.height()),
+        )),
+        SurfaceShape::Spheroid(s) => Some((
+            LocalFrame::of(s.frame()),
+            Implicit::Spheroid(s.equatorial_semi_axis(), s.polar_semi_axis()),
+        )),
+        SurfaceShape::Torus(t) => Some((
+            LocalFrame::of(t.frame()),
+            Implicit::Torus(t.major_radius(), t.minor_radius()),
+        )),
+        _ => None,
     }
 }
 
 /// Parameter-space tolerance of the patch-boundary test for curved patches.
 const PATCH_UV_TOL: f64 = 1e-10;
-
-fn patch_uv(s: &PatchSurface, p: DVec3) -> Option<DVec2> {
-    match s {
-        PatchSurface::Param(q) => q.inverse(p),
-        PatchSurface::Analytic(a) => Some(a.uv_of_local(a.frame().to_local(p))),
-    }
-}
 
 impl TrimmedPatch {
     /// Closest intersection with `t ∈ [tmin, tmax]` that the trim keeps.
@@ -287,7 +292,7 @@ impl TrimmedPatch {
         let bb = self.aabb();
         let pad = 1e-9 * bb.diagonal().length();
         let (t0, t1) = bb.expanded(pad).intersect_ray(ray, tmin, tmax)?;
-        let Some((frame, imp)) = implicit_of(&self.surface) else {
+        let Some((frame, imp)) = implicit_of(self.surface.as_ref()) else {
             return self.intersect_newton(ray, t0, t1);
         };
         let o = frame.to_local(ray.origin);
@@ -297,7 +302,7 @@ impl TrimmedPatch {
                 continue;
             }
             let p = ray.at(t);
-            let Some(uv) = patch_uv(&self.surface, p) else {
+            let Some(uv) = self.surface.inverse(p) else {
                 continue;
             };
             if self.keeps(uv, PATCH_UV_TOL) {
@@ -315,9 +320,7 @@ impl TrimmedPatch {
     /// within 1.5 cells of its seed, so each root is found from a nearby cell. Roots at
     /// grazing incidence or closer than a cell to the patch boundary may be missed.
     pub fn intersect_newton(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
-        let PatchSurface::Param(p) = &self.surface else {
-            return None;
-        };
+        let p = &self.surface;
         let n = 24;
         let h = 1.0 / n as f64;
         let mut best: Option<Hit> = None;
@@ -467,7 +470,9 @@ impl Primitive {
     pub fn is_planar(&self) -> bool {
         match self {
             Primitive::Triangle(_) | Primitive::Parallelogram(_) | Primitive::Polygon(_) => true,
-            Primitive::Trimmed(p) => matches!(implicit_of(&p.surface), Some((_, Implicit::Plane))),
+            Primitive::Trimmed(p) => {
+                matches!(implicit_of(p.surface.as_ref()), Some((_, Implicit::Plane)))
+            }
             Primitive::Bezier(_) => false,
         }
     }

@@ -2,10 +2,9 @@
 //! analytic form factors.
 //!
 //! - [`primitive`]: triangles, parallelograms, planar complex polygons (segment/arc
-//!   boundaries, holes), trimmed analytic patches, bicubic Bézier patches; [`Aabb`],
+//!   boundaries, holes), trimmed patches on every `wavelux-param` surface, bicubic Bézier patches; [`Aabb`],
 //!   [`Ray`], [`Hit`].
 //! - [`trim`]: trim loops and the slab decomposition of VirtualMesh §4.2 / Fig. 6.
-//! - [`surface`]: analytic surfaces (quadrics, torus) with unit-square parametrizations.
 //! - [`accel`]: the obvhs BVH over all primitives: closest hit, occlusion, batches.
 //! - [`formfactor`]: analytic form factors (Lambert point-to-polygon, contour integral
 //!   polygon-to-polygon, catalog configurations).
@@ -18,15 +17,13 @@ pub mod formfactor;
 pub mod intersect;
 pub mod poly;
 pub mod primitive;
-pub mod surface;
 pub mod trim;
 
 pub use accel::{Accel, OcclusionQuery};
 pub use primitive::{
-    Aabb, BezierPatch, ComplexPolygon, Hit, Parallelogram, PatchSurface, PlaneFrame, PrimId,
-    Primitive, Ray, Triangle, TrimmedPatch,
+    Aabb, BezierPatch, ComplexPolygon, Hit, Parallelogram, PlaneFrame, PrimId, Primitive, Ray,
+    Triangle, TrimmedPatch,
 };
-pub use surface::{Frame, Surface};
 pub use trim::{Edge2, TrimLoop, TrimRegion};
 
 /// Errors of geometric construction and queries.

@@ -21,7 +21,6 @@ use glam::{DVec2, DVec3};
 
 use crate::GeometryError;
 use crate::bezier;
-use crate::surface::Surface;
 use crate::trim::TrimRegion;
 use std::sync::Arc;
 use wavelux_param::Parametrization;
@@ -482,75 +481,24 @@ impl ComplexPolygon {
     }
 }
 
-/// The surface under a [`TrimmedPatch`]: any `wavelux-param` parametrization (its own
-/// `(u, v)` map and inverse are used), or one of this crate's analytic [`Surface`]s
-/// (spheroid and torus until `wavelux-param` provides them).
+/// A `wavelux-param` surface patch restricted to a trim region of its unit-square
+/// parameter domain (VirtualMesh §3–4: trimmed surfaces; trim loops are segments and
+/// arcs). The surface's own `(u, v)` map and inverse are used throughout; ray
+/// intersection dispatches on its `shape()` (plane, sphere, spheroid, cylinder, cone,
+/// torus: analytic).
 #[derive(Debug, Clone)]
-pub enum PatchSurface {
-    /// A `wavelux-param` surface patch (intersection dispatches on its `shape()`).
-    Param(Arc<dyn Parametrization>),
-    /// An analytic surface of this crate.
-    Analytic(Surface),
-}
-
-impl PatchSurface {
-    /// Point at `uv`.
-    pub fn eval(&self, uv: DVec2) -> DVec3 {
-        match self {
-            PatchSurface::Param(p) => p.position(uv),
-            PatchSurface::Analytic(s) => s.eval(uv),
-        }
-    }
-
-    /// Unit normal at `uv` (the surface's orientation: outward for closed surfaces).
-    pub fn normal(&self, uv: DVec2) -> DVec3 {
-        match self {
-            PatchSurface::Param(p) => p.normal(uv),
-            PatchSurface::Analytic(s) => s.normal(uv),
-        }
-    }
-
-    /// Bounding box of the untrimmed surface patch.
-    pub fn aabb(&self) -> Aabb {
-        match self {
-            PatchSurface::Param(p) => {
-                let b = p.bounds();
-                Aabb {
-                    min: b.min,
-                    max: b.max,
-                }
-            }
-            PatchSurface::Analytic(s) => s.aabb(),
-        }
-    }
-
-    /// Area of the untrimmed patch.
-    pub fn area(&self) -> f64 {
-        match self {
-            PatchSurface::Param(p) => p.area(),
-            PatchSurface::Analytic(s) => s.area(),
-        }
-    }
-}
-
-impl PartialEq for PatchSurface {
-    fn eq(&self, other: &Self) -> bool {
-        match (self, other) {
-            (PatchSurface::Param(a), PatchSurface::Param(b)) => Arc::ptr_eq(a, b),
-            (PatchSurface::Analytic(a), PatchSurface::Analytic(b)) => a == b,
-            _ => false,
-        }
-    }
-}
-
-/// A parametric surface restricted to a trim region of its unit-square parameter
-/// domain (VirtualMesh §3–4: trimmed surfaces; trim loops are segments and arcs).
-#[derive(Debug, Clone, PartialEq)]
 pub struct TrimmedPatch {
-    /// The untrimmed surface.
-    pub surface: PatchSurface,
+    /// The untrimmed surface patch.
+    pub surface: Arc<dyn Parametrization>,
     /// Kept part of `[0,1]²` (`None` = the whole square).
     pub trim: Option<TrimRegion>,
+}
+
+impl PartialEq for TrimmedPatch {
+    /// Same surface object (pointer equality) and equal trims.
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.surface, &other.surface) && self.trim == other.trim
+    }
 }
 
 impl TrimmedPatch {
@@ -559,7 +507,7 @@ impl TrimmedPatch {
     /// # Errors
     /// Trim region outside the unit square or of non-positive area.
     pub fn new(
-        surface: PatchSurface,
+        surface: Arc<dyn Parametrization>,
         trim: Option<TrimRegion>,
     ) -> Result<TrimmedPatch, GeometryError> {
         if let Some(t) = &trim {
@@ -578,28 +526,6 @@ impl TrimmedPatch {
         Ok(TrimmedPatch { surface, trim })
     }
 
-    /// Patch on a `wavelux-param` surface.
-    ///
-    /// # Errors
-    /// As [`TrimmedPatch::new`].
-    pub fn on_param(
-        surface: Arc<dyn Parametrization>,
-        trim: Option<TrimRegion>,
-    ) -> Result<TrimmedPatch, GeometryError> {
-        TrimmedPatch::new(PatchSurface::Param(surface), trim)
-    }
-
-    /// Patch on an analytic [`Surface`].
-    ///
-    /// # Errors
-    /// As [`TrimmedPatch::new`].
-    pub fn on_analytic(
-        surface: Surface,
-        trim: Option<TrimRegion>,
-    ) -> Result<TrimmedPatch, GeometryError> {
-        TrimmedPatch::new(PatchSurface::Analytic(surface), trim)
-    }
-
     /// True if `uv` is kept by the trim (and lies in `[0,1]²`, to `tol`).
     pub fn keeps(&self, uv: DVec2, tol: f64) -> bool {
         if !(uv.x >= -tol && uv.x <= 1.0 + tol && uv.y >= -tol && uv.y <= 1.0 + tol) {
@@ -613,12 +539,32 @@ impl TrimmedPatch {
 
     /// Support map (the surface's map).
     pub fn eval(&self, uv: DVec2) -> DVec3 {
-        self.surface.eval(uv)
+        self.surface.position(uv)
     }
 
-    /// Bounding box of the whole untrimmed surface (conservative).
+    /// Unit normal at `uv` (the surface's orientation).
+    pub fn normal(&self, uv: DVec2) -> DVec3 {
+        self.surface.normal(uv)
+    }
+
+    /// Area of the kept part: `surface area × trim area` for equal-area maps (exact),
+    /// otherwise `∫_trim J(u,v)` by Gauss–Legendre of order 16 on the trim's slab cells
+    /// ([`TrimRegion::integrate`]).
+    pub fn area(&self) -> f64 {
+        match &self.trim {
+            None => self.surface.area(),
+            Some(t) if self.surface.is_equal_area() => self.surface.area() * t.area(),
+            Some(t) => t.integrate(16, |uv| self.surface.jacobian(uv)),
+        }
+    }
+
+    /// Bounding box of the whole untrimmed surface patch (conservative).
     pub fn aabb(&self) -> Aabb {
-        self.surface.aabb()
+        let b = self.surface.bounds();
+        Aabb {
+            min: b.min,
+            max: b.max,
+        }
     }
 }
 

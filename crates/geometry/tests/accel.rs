@@ -61,7 +61,7 @@ fn random_scene(seed: u64, n_tri: usize) -> Vec<Primitive> {
             TrimLoop::circle(DVec2::splat(0.5), 0.2).unwrap().reversed(),
         ])
         .unwrap();
-        prims.push(TrimmedPatch::on_param(s, Some(trim)).unwrap().into());
+        prims.push(TrimmedPatch::new(s, Some(trim)).unwrap().into());
     }
     let mut p = [[DVec3::ZERO; 4]; 4];
     for i in 0..4 {
@@ -221,10 +221,7 @@ fn no_self_shadowing_between_surface_points() {
     }
     let f = param::Frame::from_axis(DVec3::new(1.0, 2.0, 3.0), DVec3::new(0.3, 0.1, 1.0)).unwrap();
     let sph: Arc<dyn param::Parametrization> = Arc::new(param::Sphere::full(f, 1.7).unwrap());
-    let acc = Accel::build(vec![
-        TrimmedPatch::on_param(sph.clone(), None).unwrap().into(),
-    ])
-    .unwrap();
+    let acc = Accel::build(vec![TrimmedPatch::new(sph.clone(), None).unwrap().into()]).unwrap();
     for _ in 0..2000 {
         let p = sph.position(DVec2::new(
             r.random_range(0.0..1.0),
@@ -247,7 +244,7 @@ fn curved_primitives_still_shadow_themselves() {
     let f = param::Frame::at(DVec3::ZERO).unwrap();
     let tor: Arc<dyn param::Parametrization> =
         Arc::new(param::Torus::new(f, 1.0, 0.3, (-PI, PI), (-PI, PI)).unwrap());
-    let acc = Accel::build(vec![TrimmedPatch::on_param(tor, None).unwrap().into()]).unwrap();
+    let acc = Accel::build(vec![TrimmedPatch::new(tor, None).unwrap().into()]).unwrap();
     let p = DVec3::new(1.3, 0.0, 0.0);
     let q = DVec3::new(-1.3, 0.0, 0.0);
     assert!(acc.occluded(p, q, [Some(0), Some(0)]));

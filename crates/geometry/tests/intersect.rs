@@ -3,7 +3,7 @@
 use glam::{DVec2, DVec3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::PI;
 use std::sync::Arc;
 use wavelux_geometry::*;
 use wavelux_param as param;
@@ -171,10 +171,7 @@ fn trim_region() -> TrimRegion {
     TrimRegion::new(vec![outer, hole]).unwrap()
 }
 
-fn implicit_value(s: &PatchSurface, p: DVec3) -> f64 {
-    let PatchSurface::Param(q) = s else {
-        unreachable!()
-    };
+fn implicit_value(q: &dyn param::Parametrization, p: DVec3) -> f64 {
     match q.shape() {
         param::SurfaceShape::Sphere(x) => {
             let l = x.frame().point_to_local(p);
@@ -212,10 +209,8 @@ fn march(patch: &TrimmedPatch, ray: &Ray) -> Option<(f64, DVec2)> {
         b.expanded(1e-6 * b.diagonal().length())
             .intersect_ray(ray, 0.0, f64::INFINITY)?;
     let n = 40_000;
-    let f = |t: f64| implicit_value(&patch.surface, ray.at(t));
-    let PatchSurface::Param(q) = &patch.surface else {
-        unreachable!()
-    };
+    let f = |t: f64| implicit_value(patch.surface.as_ref(), ray.at(t));
+    let q = &patch.surface;
     let mut ta = t0;
     let mut fa = f(ta);
     for i in 1..=n {
@@ -294,7 +289,7 @@ fn param_surfaces() -> Vec<(&'static str, Arc<dyn param::Parametrization>)> {
 fn trimmed_patches_vs_ray_marching() {
     for (name, surf) in param_surfaces() {
         for trim in [None, Some(trim_region())] {
-            let patch = TrimmedPatch::on_param(surf.clone(), trim.clone()).unwrap();
+            let patch = TrimmedPatch::new(surf.clone(), trim.clone()).unwrap();
             let size = patch.aabb().diagonal().length();
             let mut mismatches = 0;
             let rays = rays_at(patch.aabb(), 300, 7);
@@ -328,7 +323,7 @@ fn trimmed_patches_vs_ray_marching() {
 #[test]
 fn newton_fallback_agrees_with_implicit_roots() {
     for (name, surf) in param_surfaces() {
-        let patch = TrimmedPatch::on_param(surf.clone(), Some(trim_region())).unwrap();
+        let patch = TrimmedPatch::new(surf.clone(), Some(trim_region())).unwrap();
         let size = patch.aabb().diagonal().length();
         let mut mismatches = 0;
         for ray in rays_at(patch.aabb(), 100, 5) {
@@ -356,7 +351,7 @@ fn torus_quartic_is_accurate_far_from_origin_and_at_small_scale() {
         let tor = Arc::new(
             param::Torus::new(f, 1.0 * scale, 0.25 * scale, (-PI, PI), (-PI, PI)).unwrap(),
         );
-        let patch = TrimmedPatch::on_param(tor.clone(), None).unwrap();
+        let patch = TrimmedPatch::new(tor.clone(), None).unwrap();
         let mut hits = 0;
         for ray in rays_at(patch.aabb(), 400, 11) {
             if let Some(h) = patch.intersect(&ray, 0.0, f64::INFINITY) {
@@ -369,30 +364,6 @@ fn torus_quartic_is_accurate_far_from_origin_and_at_small_scale() {
         }
         assert!(hits > 50);
     }
-}
-
-#[test]
-fn analytic_surfaces_vs_param_equivalents() {
-    // The crate's own analytic torus/spheroid agree with param's on hit distances.
-    let o = DVec3::new(0.1, 0.2, 0.3);
-    let mine =
-        TrimmedPatch::on_analytic(Surface::torus(Frame::at(o), 1.0, 0.3).unwrap(), None).unwrap();
-    let pf = param::Frame::at(o).unwrap();
-    let theirs = TrimmedPatch::on_param(
-        Arc::new(param::Torus::new(pf, 1.0, 0.3, (-PI, PI), (-PI, PI)).unwrap()),
-        None,
-    )
-    .unwrap();
-    for ray in rays_at(mine.aabb(), 300, 3) {
-        let a = mine.intersect(&ray, 0.0, f64::INFINITY);
-        let b = theirs.intersect(&ray, 0.0, f64::INFINITY);
-        assert_eq!(a.is_some(), b.is_some());
-        if let (Some(a), Some(b)) = (a, b) {
-            assert!((a.t - b.t).abs() <= 1e-12 * (1.0 + a.t));
-            assert!((mine.eval(a.uv) - a.point).length() <= 1e-10);
-        }
-    }
-    let _ = TAU;
 }
 
 fn bezier_patch(seed: u64) -> BezierPatch {
@@ -456,4 +427,48 @@ fn bezier_vs_fine_tessellation() {
         }
         assert!(mismatch <= 4, "seed {seed}: {mismatch} hit/miss mismatches");
     }
+}
+
+#[test]
+fn trimmed_patch_area_natural_and_equal_area() {
+    // Natural torus map: θ = −π + 2π u, φ = −π + 2π v. Trim to a rectangle with a
+    // circular hole; the area is ∫ J over the trim, checked against the closed form of
+    // the rectangle minus a fine polar quadrature of the hole.
+    let f = frame(DVec3::new(0.2, 0.1, -0.3), DVec3::new(0.1, 0.2, 1.0));
+    let (big, small) = (1.5, 0.4);
+    let tor = param::Torus::new(f, big, small, (-PI, PI), (-PI, PI)).unwrap();
+    let nat: Arc<dyn param::Parametrization> = Arc::new(tor.natural());
+    let (u0, u1, v0, v1) = (0.1, 0.7, 0.2, 0.9);
+    let trim = TrimRegion::new(vec![
+        TrimLoop::rect(DVec2::new(u0, v0), DVec2::new(u1, v1)).unwrap(),
+        TrimLoop::circle(DVec2::new(0.4, 0.5), 0.1)
+            .unwrap()
+            .reversed(),
+    ])
+    .unwrap();
+    let patch = TrimmedPatch::new(nat.clone(), Some(trim)).unwrap();
+    let phi = |v: f64| -PI + 2.0 * PI * v;
+    let rect_area = small
+        * 2.0
+        * PI
+        * (u1 - u0)
+        * (big * (phi(v1) - phi(v0)) + small * (phi(v1).sin() - phi(v0).sin()));
+    let gl = wavelux_quadrature::GaussLegendre::new(40).unwrap();
+    let hole = gl.integrate(0.0, 0.1, |rr| {
+        gl.integrate(0.0, 2.0 * PI, |a| {
+            rr * nat.jacobian(DVec2::new(0.4 + rr * a.cos(), 0.5 + rr * a.sin()))
+        })
+    });
+    assert!(
+        (patch.area() - (rect_area - hole)).abs() <= 1e-10 * rect_area,
+        "{} vs {}",
+        patch.area(),
+        rect_area - hole
+    );
+    // Equal-area map: area = total × trim area.
+    let ea: Arc<dyn param::Parametrization> = Arc::new(tor.equal_area());
+    let p2 = TrimmedPatch::new(ea.clone(), patch.trim.clone()).unwrap();
+    let t = patch.trim.as_ref().unwrap();
+    assert!((p2.area() - ea.area() * t.area()).abs() <= 1e-12 * ea.area());
+    assert!((t.integrate(16, |uv| ea.jacobian(uv)) - p2.area()).abs() <= 1e-10 * ea.area());
 }

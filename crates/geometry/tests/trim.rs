@@ -110,3 +110,41 @@ fn invalid_loops_are_rejected() {
     ];
     assert!(TrimLoop::new(open).is_err());
 }
+
+#[test]
+fn region_integration_matches_green_moments() {
+    // ∫ 1 = area; ∫ x = ½∮ x² dy, ∫ y = −½∮ y² dx (Green), the boundary integrals done
+    // by fine Gauss–Legendre on each edge's parametrization.
+    let reg = region(
+        &[1.0, 0.8, 0.9, 0.7, 1.0, 0.85],
+        &[0.0, 1.0, -0.3, 0.5, 0.0, 0.9],
+        0.07,
+    );
+    let gl = wavelux_quadrature::GaussLegendre::new(40).unwrap();
+    let (mut mx, mut my) = (0.0, 0.0);
+    for l in &reg.loops {
+        for e in &l.edges {
+            let h = 1e-7;
+            mx += gl.integrate(0.0, 1.0, |s| {
+                let p = e.point(s);
+                let dy = (e.point(s + h).y - e.point(s - h).y) / (2.0 * h);
+                0.5 * p.x * p.x * dy
+            });
+            my += gl.integrate(0.0, 1.0, |s| {
+                let p = e.point(s);
+                let dx = (e.point(s + h).x - e.point(s - h).x) / (2.0 * h);
+                -0.5 * p.y * p.y * dx
+            });
+        }
+    }
+    let area = reg.integrate(12, |_| 1.0);
+    assert!(
+        (area - reg.area()).abs() <= 1e-12,
+        "{area} vs {}",
+        reg.area()
+    );
+    let ix = reg.integrate(12, |p| p.x);
+    let iy = reg.integrate(12, |p| p.y);
+    assert!((ix - mx).abs() <= 1e-8, "{ix} vs {mx}");
+    assert!((iy - my).abs() <= 1e-8, "{iy} vs {my}");
+}
