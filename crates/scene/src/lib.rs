@@ -8,6 +8,8 @@
 //!   merging, complex polygons with arcs and holes (VirtualMesh §3.2), Bézier patches;
 //! - [`medium`]: voxel grids of source, opacity and albedo (GlobalCube §2.1, §3.1);
 //! - [`gltf_load`]: glTF 2.0 (`.gltf`, `.glb`) loader;
+//! - [`native`]: the native TOML format (documented in `docs/scene-format.md`);
+//! - [`analytic`]: trimmed analytic patches on `wavelux-param`'s equal-area maps;
 //! - [`builtin`]: Cornell box, Ziegler §4.1.1 and §4.2.1 scenes, white furnace.
 //!
 //! # Radiometric conventions
@@ -25,17 +27,20 @@
 // reason: `!(x > 0.0)` is the idiom that also rejects NaN, which input validation needs.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod analytic;
 pub mod builtin;
 pub mod camera;
 pub mod error;
 pub mod gltf_load;
 pub mod material;
 pub mod medium;
+pub mod native;
 pub mod scene;
 pub mod shape;
 
 use std::path::Path;
 
+pub use analytic::{AnalyticPatch, AnalyticSurface, Placement, Region};
 pub use camera::{Camera, Projection};
 pub use error::{SceneError, Warning, WarningKind};
 pub use gltf_load::{GltfOptions, load_gltf, load_gltf_slice};
@@ -43,13 +48,14 @@ pub use material::{
     EmissionProfile, Material, ReflectancePolicy, Rgb, Texture, TextureRef, WardParams,
 };
 pub use medium::Medium;
+pub use native::{load_native, parse_native};
 pub use scene::{DefaultValue, MaterialId, Scene, Sidedness, Surface};
 pub use shape::{
     BezierPatch, Loop, LoopEdge, MeshElement, PlaneFrame, PolygonShape, Shape, TriangleMesh,
 };
 
 /// Loads a scene file, choosing the loader by extension: `.gltf`/`.glb` (glTF 2.0 with
-/// default [`GltfOptions`]).
+/// default [`GltfOptions`]) or `.toml` (native format).
 pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
     let path = path.as_ref();
     let ext = path
@@ -58,6 +64,7 @@ pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
         .map(|e| e.to_ascii_lowercase());
     match ext.as_deref() {
         Some("gltf" | "glb") => load_gltf(path, &GltfOptions::default()),
+        Some("toml") => load_native(path),
         _ => Err(SceneError::UnknownFormat {
             file: path.display().to_string(),
         }),

@@ -187,6 +187,25 @@ impl Scene {
         self.warnings.extend(other.warnings);
     }
 
+    /// Every surface's exact `wavelux-geometry` primitives, flattened, each with the
+    /// index of its surface in [`Scene::surfaces`]. `file` names the scene in errors.
+    pub fn primitives(
+        &self,
+        file: &str,
+    ) -> Result<Vec<(usize, wavelux_geometry::Primitive)>, SceneError> {
+        let mut out = Vec::new();
+        for (i, s) in self.surfaces.iter().enumerate() {
+            let element = format!("surface {:?}", s.name);
+            out.extend(
+                s.shape
+                    .primitives(file, &element)?
+                    .into_iter()
+                    .map(|p| (i, p)),
+            );
+        }
+        Ok(out)
+    }
+
     /// Validates the whole scene: unique names, material ids in range, material
     /// ranges ([`Material::validate`]), shapes ([`Shape::validate`]), texture
     /// references and media. `file` names the source in errors.

@@ -10,6 +10,7 @@
 
 use glam::{DVec2, DVec3};
 
+use crate::analytic::AnalyticPatch;
 use crate::error::SceneError;
 
 /// Relative tolerance under which a triangle or parallelogram counts as degenerate:
@@ -304,6 +305,21 @@ pub struct Loop {
     pub edges: Vec<LoopEdge>,
 }
 
+/// Signed angle swept by an arc from `p0` to `p1` around `center`: in `(0, 2π]` when
+/// counter-clockwise (a full circle when `p1 == p0`), in `[−2π, 0)` when clockwise.
+pub fn arc_sweep(p0: DVec2, p1: DVec2, center: DVec2, ccw: bool) -> f64 {
+    let tau = std::f64::consts::TAU;
+    let a0 = (p0 - center).to_angle();
+    let a1 = (p1 - center).to_angle();
+    let d = (a1 - a0).rem_euclid(tau);
+    let d = if d == 0.0 || p0 == p1 { tau } else { d };
+    match (ccw, d == tau) {
+        (true, _) => d,
+        (false, true) => -tau,
+        (false, false) => d - tau,
+    }
+}
+
 /// Relative tolerance for an arc's end point lying on its circle.
 pub const ARC_REL: f64 = 1e-9;
 
@@ -343,20 +359,7 @@ impl Loop {
                 LoopEdge::Segment { .. } => twice += p0.perp_dot(p1),
                 LoopEdge::Arc { center, ccw, .. } => {
                     let r = (p0 - center).length();
-                    let a0 = (p0 - center).to_angle();
-                    let a1 = (p1 - center).to_angle();
-                    let tau = std::f64::consts::TAU;
-                    let mut sweep = (a1 - a0).rem_euclid(tau);
-                    if ccw {
-                        if sweep == 0.0 {
-                            sweep = tau;
-                        }
-                    } else {
-                        sweep -= tau;
-                        if sweep == -tau && p0 != p1 {
-                            sweep = 0.0;
-                        }
-                    }
+                    let sweep = arc_sweep(p0, p1, center, ccw);
                     twice += r * r * sweep + center.perp_dot(p1 - p0);
                 }
             }
@@ -470,13 +473,14 @@ impl PolygonShape {
     }
 }
 
-/// A tensor-product Bézier patch of degrees `(degree_u, degree_v)` (Glossy §6 uses
-/// bicubic patches). Front side: `∂P/∂u × ∂P/∂v`.
+/// A tensor-product Bézier patch of degrees `(degree_u, degree_v)`, each in `1..=3`
+/// (Glossy §6 uses bicubic patches; lower degrees are elevated exactly to bicubic for
+/// `wavelux-param`/`wavelux-geometry`). Front side: `∂P/∂u × ∂P/∂v`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BezierPatch {
-    /// Degree in `u` (`1..=16`).
+    /// Degree in `u` (`1..=3`).
     pub degree_u: usize,
-    /// Degree in `v` (`1..=16`).
+    /// Degree in `v` (`1..=3`).
     pub degree_v: usize,
     /// `(degree_u + 1) × (degree_v + 1)` control points, index `i·(degree_v+1) + j`
     /// for `u`-index `i`, `v`-index `j`.
@@ -512,14 +516,50 @@ impl BezierPatch {
         (p, du, dv)
     }
 
+    /// The same patch as a bicubic 4×4 control net `[i][j]` (`i` along `u`), by exact
+    /// degree elevation. Requires a valid patch (see [`Shape::validate`]).
+    pub fn bicubic(&self) -> [[DVec3; 4]; 4] {
+        // Elevate one polygon of degree n by one: Q_i = i/(n+1) P_{i−1} + (1 − i/(n+1)) P_i.
+        fn elevate(p: &[DVec3]) -> Vec<DVec3> {
+            let n = p.len() - 1;
+            (0..=n + 1)
+                .map(|i| {
+                    let a = i as f64 / (n + 1) as f64;
+                    let prev = if i > 0 { p[i - 1] } else { DVec3::ZERO };
+                    let cur = if i <= n { p[i] } else { DVec3::ZERO };
+                    prev * a + cur * (1.0 - a)
+                })
+                .collect()
+        }
+        fn to_cubic(mut p: Vec<DVec3>) -> Vec<DVec3> {
+            while p.len() < 4 {
+                p = elevate(&p);
+            }
+            p
+        }
+        let (m, n) = (self.degree_u, self.degree_v);
+        // Elevate along v for each u-row, then along u for each v-column.
+        let rows: Vec<Vec<DVec3>> = (0..=m)
+            .map(|i| to_cubic(self.control[i * (n + 1)..(i + 1) * (n + 1)].to_vec()))
+            .collect();
+        let mut out = [[DVec3::ZERO; 4]; 4];
+        for j in 0..4 {
+            let col = to_cubic(rows.iter().map(|r| r[j]).collect());
+            for i in 0..4 {
+                out[i][j] = col[i];
+            }
+        }
+        out
+    }
+
     fn validate(&self, file: &str, element: &str) -> Result<(), SceneError> {
-        let ok_deg = |d: usize| (1..=16).contains(&d);
+        let ok_deg = |d: usize| (1..=3).contains(&d);
         if !ok_deg(self.degree_u) || !ok_deg(self.degree_v) {
             return Err(SceneError::Unsupported {
                 file: file.into(),
                 element: element.into(),
                 what: format!(
-                    "Bézier degrees ({}, {}) outside 1..=16",
+                    "Bézier degrees ({}, {}) outside 1..=3",
                     self.degree_u, self.degree_v
                 ),
             });
@@ -563,6 +603,8 @@ pub enum Shape {
     Polygon(PolygonShape),
     /// A Bézier patch.
     Bezier(BezierPatch),
+    /// A (trimmed) analytic patch on an equal-area parametrization.
+    Patch(AnalyticPatch),
 }
 
 impl Shape {
@@ -575,10 +617,11 @@ impl Shape {
         }
     }
 
-    /// Area in square scene units. Exact for every variant except Bézier patches,
-    /// whose area is integrated with a tensor 5-point Gauss–Legendre rule on 8×8
-    /// subsquares of the parameter domain (relative error below `1e-8` for patches of
-    /// moderate distortion, such as bicubic teapot patches).
+    /// Area in square scene units. Exact (closed form) for triangles, parallelograms,
+    /// meshes and polygons; analytic patches use `wavelux-param`'s area times the trim
+    /// fraction (exact because the maps are equal-area; numerical for the torus and
+    /// spheroids where `wavelux-param` integrates); Bézier patches use
+    /// `wavelux-param`'s numerical area. NaN for shapes that fail validation.
     pub fn area(&self) -> f64 {
         match self {
             Self::Triangle([a, b, c]) => 0.5 * (*b - *a).cross(*c - *a).length(),
@@ -586,6 +629,7 @@ impl Shape {
             Self::Mesh(m) => m.elements().map(|e| e.area()).sum(),
             Self::Polygon(p) => p.area(),
             Self::Bezier(b) => bezier_area(b),
+            Self::Patch(p) => patch_area(p),
         }
     }
 
@@ -667,8 +711,19 @@ impl Shape {
             }
             Self::Bezier(b) => {
                 b.validate(file, element)?;
-                if !(bezier_area(b) > 0.0) {
-                    return Err(degenerate("Bézier patch has zero area"));
+                self.primitives(file, element)?;
+            }
+            Self::Patch(p) => {
+                if let Some(r) = &p.trim {
+                    r.outer.validate(file, element, "trim outer")?;
+                    for (i, h) in r.holes.iter().enumerate() {
+                        h.validate(file, element, &format!("trim hole {i}"))?;
+                    }
+                }
+                p.surface.parametrization(file, element)?;
+                self.primitives(file, element)?;
+                if !(patch_area(p) > 0.0) {
+                    return Err(degenerate("analytic patch has zero area"));
                 }
             }
         }
@@ -749,6 +804,10 @@ impl Shape {
                     holes: poly.holes.iter().map(scale).collect(),
                 })
             }
+            Self::Patch(p) => Self::Patch(AnalyticPatch {
+                surface: p.surface.transformed(m)?,
+                trim: p.trim.clone(),
+            }),
             Self::Bezier(b) => Self::Bezier(BezierPatch {
                 degree_u: b.degree_u,
                 degree_v: b.degree_v,
@@ -758,40 +817,148 @@ impl Shape {
     }
 }
 
-/// Bézier patch area by a tensor 5-point Gauss–Legendre rule on 8×8 subsquares.
+/// Bézier patch area from `wavelux-param` (NaN if the patch is invalid).
 fn bezier_area(b: &BezierPatch) -> f64 {
+    use wavelux_param::Parametrization;
     if b.validate(crate::error::MEMORY_FILE, "").is_err() {
         return f64::NAN;
     }
-    // 5-point Gauss–Legendre nodes and weights on [-1, 1].
-    const X: [f64; 5] = [
-        -0.906_179_845_938_664,
-        -0.538_469_310_105_683,
-        0.0,
-        0.538_469_310_105_683,
-        0.906_179_845_938_664,
-    ];
-    const W: [f64; 5] = [
-        0.236_926_885_056_189,
-        0.478_628_670_499_366,
-        0.568_888_888_888_889,
-        0.478_628_670_499_366,
-        0.236_926_885_056_189,
-    ];
-    let cells = 8;
-    let h = 1.0 / cells as f64;
-    let mut area = 0.0;
-    for ci in 0..cells {
-        for cj in 0..cells {
-            for (xi, wi) in X.iter().zip(W) {
-                for (xj, wj) in X.iter().zip(W) {
-                    let u = (ci as f64 + 0.5 * (xi + 1.0)) * h;
-                    let v = (cj as f64 + 0.5 * (xj + 1.0)) * h;
-                    let (_, du, dv) = b.eval(u, v);
-                    area += wi * wj * 0.25 * h * h * du.cross(dv).length();
-                }
-            }
-        }
+    wavelux_param::BezierPatch::new(b.bicubic()).map_or(f64::NAN, |p| p.area())
+}
+
+/// Analytic patch area: untrimmed area × trim fraction (NaN if invalid).
+fn patch_area(p: &AnalyticPatch) -> f64 {
+    p.surface
+        .parametrization(crate::error::MEMORY_FILE, "")
+        .map_or(f64::NAN, |s| s.area() * p.trim_fraction())
+}
+
+fn gerr(file: &str, element: &str, e: wavelux_geometry::GeometryError) -> SceneError {
+    match e {
+        wavelux_geometry::GeometryError::Degenerate(what) => SceneError::Degenerate {
+            file: file.into(),
+            element: element.into(),
+            what: what.into(),
+        },
+        other => SceneError::Malformed {
+            file: file.into(),
+            element: element.into(),
+            what: other.to_string(),
+        },
     }
-    area
+}
+
+impl Loop {
+    /// The loop as a `wavelux-geometry` trim loop, counter-clockwise if `ccw`, else
+    /// clockwise.
+    pub fn to_trim_loop(
+        &self,
+        ccw: bool,
+        file: &str,
+        element: &str,
+    ) -> Result<wavelux_geometry::TrimLoop, SceneError> {
+        use wavelux_geometry::{Edge2, TrimLoop};
+        let n = self.edges.len();
+        let mut edges = Vec::with_capacity(n);
+        for i in 0..n {
+            let p0 = self.edges[i].start();
+            let p1 = self.edges[(i + 1) % n].start();
+            let e = match self.edges[i] {
+                LoopEdge::Segment { .. } => Edge2::segment(p0, p1),
+                LoopEdge::Arc { center, ccw, .. } => Edge2::arc(
+                    center,
+                    (p0 - center).length(),
+                    (p0 - center).to_angle(),
+                    arc_sweep(p0, p1, center, ccw),
+                ),
+            }
+            .map_err(|e| gerr(file, element, e))?;
+            edges.push(e);
+        }
+        let l = TrimLoop::new(edges).map_err(|e| gerr(file, element, e))?;
+        Ok(if (l.signed_area() > 0.0) == ccw {
+            l
+        } else {
+            l.reversed()
+        })
+    }
+}
+
+fn trim_region(
+    outer: &Loop,
+    holes: &[Loop],
+    file: &str,
+    element: &str,
+) -> Result<wavelux_geometry::TrimRegion, SceneError> {
+    let mut loops = vec![outer.to_trim_loop(true, file, element)?];
+    for h in holes {
+        loops.push(h.to_trim_loop(false, file, element)?);
+    }
+    wavelux_geometry::TrimRegion::new(loops).map_err(|e| gerr(file, element, e))
+}
+
+impl Shape {
+    /// Builds the exact `wavelux-geometry` primitives of the shape (one per mesh
+    /// element; one otherwise). `file` and `element` name the shape in errors.
+    pub fn primitives(
+        &self,
+        file: &str,
+        element: &str,
+    ) -> Result<Vec<wavelux_geometry::Primitive>, SceneError> {
+        use wavelux_geometry as g;
+        let err = |e| gerr(file, element, e);
+        Ok(match self {
+            Self::Triangle([a, b, c]) => {
+                vec![g::Primitive::Triangle(
+                    g::Triangle::new(*a, *b, *c).map_err(err)?,
+                )]
+            }
+            Self::Parallelogram {
+                origin,
+                edge_u,
+                edge_v,
+            } => vec![g::Primitive::Parallelogram(
+                g::Parallelogram::new(*origin, *edge_u, *edge_v).map_err(err)?,
+            )],
+            Self::Mesh(m) => m
+                .elements()
+                .map(|e| match e {
+                    MeshElement::Triangle([a, b, c]) => {
+                        g::Triangle::new(a, b, c).map(g::Primitive::Triangle)
+                    }
+                    MeshElement::Parallelogram {
+                        origin,
+                        edge_u,
+                        edge_v,
+                    } => g::Parallelogram::new(origin, edge_u, edge_v)
+                        .map(g::Primitive::Parallelogram),
+                })
+                .collect::<Result<_, _>>()
+                .map_err(err)?,
+            Self::Polygon(p) => {
+                let frame =
+                    g::PlaneFrame::from_axes(p.frame.origin, p.frame.u, p.frame.v).map_err(err)?;
+                let region = trim_region(&p.outer, &p.holes, file, element)?;
+                vec![g::Primitive::Polygon(Box::new(
+                    g::ComplexPolygon::new(frame, region).map_err(err)?,
+                ))]
+            }
+            Self::Bezier(b) => {
+                b.validate(file, element)?;
+                vec![g::Primitive::Bezier(Box::new(
+                    g::BezierPatch::new(b.bicubic()).map_err(err)?,
+                ))]
+            }
+            Self::Patch(p) => {
+                let surface = p.surface.parametrization(file, element)?;
+                let trim = match &p.trim {
+                    Some(r) => Some(trim_region(&r.outer, &r.holes, file, element)?),
+                    None => None,
+                };
+                vec![g::Primitive::Trimmed(Box::new(
+                    g::TrimmedPatch::new(surface, trim).map_err(err)?,
+                ))]
+            }
+        })
+    }
 }
