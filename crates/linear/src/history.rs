@@ -117,6 +117,9 @@ pub enum StopReason {
     HappyBreakdown,
     /// The iteration limit was reached first.
     MaxIterations,
+    /// A serious breakdown; only used for the partial result carried by
+    /// [`crate::LinearError::Breakdown`].
+    Breakdown,
 }
 
 /// The convergence history of one solve.

@@ -53,7 +53,7 @@ fn breakdown(
         method,
         iteration,
         detail,
-        partial: Box::new(rec.finish(x, StopReason::MaxIterations, fin)),
+        partial: Box::new(rec.finish(x, StopReason::Breakdown, fin)),
     }
 }
 

@@ -11,6 +11,11 @@
 //!   2.1). These take `K` itself; Gauss–Seidel-like methods need its columns (and
 //!   some its rows). For Krylov methods wrap `K` in [`IdentityMinus`].
 //!
+//! Operators: [`DenseOperator`] (nalgebra) and [`CsrMatrix`] offer every
+//! capability; [`FnOperator`] wraps a closure `y = A x` for matrix-free use (the
+//! hierarchical wavelet solver's case, Ziegler §2.3.4), which Picard and the Krylov
+//! methods (except CGNR, which needs `Aᵀ`) accept.
+//!
 //! Unknowns are scalar `f64`: a radiosity solver with RGB unknowns solves each colour
 //! channel separately with the same operator (the operator is linear and
 //! channel-independent; only `K` with per-channel reflectance differs, in which case

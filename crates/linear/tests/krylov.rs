@@ -231,6 +231,8 @@ fn cg_reports_breakdown_on_indefinite_operator() {
         } => {
             assert_eq!(method, Method::Cg);
             assert_eq!(partial.x, vec![0.0, 0.0]);
+            assert_eq!(partial.history.reason, StopReason::Breakdown);
+            assert!(!partial.history.converged);
             assert_eq!(partial.history.iterations.len(), 1);
         }
         e => panic!("unexpected {e:?}"),
