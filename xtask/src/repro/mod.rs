@@ -4,6 +4,8 @@
 //! paper's numbers are quoted inside each module next to their source, and ours are
 //! always computed by `run` in the same invocation.
 
+pub mod ziegler_3_1_4;
+
 use crate::report::Report;
 use crate::reproduce::Ctx;
 
@@ -23,5 +25,11 @@ pub struct Reproduction {
 
 /// Every registered reproduction, in report order.
 pub fn all() -> Vec<Reproduction> {
-    vec![]
+    vec![Reproduction {
+        id: "ziegler-3.1.4",
+        source: "Ziegler §3.1.4, Figs. 3.5–3.6 and tables",
+        seed_file: "004_cb5b08859768bf36.txt",
+        title: "Haar vs multiwavelets vs CDV: projections, compression and L1 errors",
+        run: ziegler_3_1_4::run,
+    }]
 }
