@@ -25,6 +25,7 @@ use crate::{GaussLegendre, QuadratureError, check_finite};
 use nalgebra::{DMatrix, DVector};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
+use std::sync::OnceLock;
 
 /// Largest Gauss order for which [`GaussKronrod::new`] builds a Kronrod extension.
 pub const MAX_KRONROD_ORDER: usize = 40;
@@ -304,8 +305,15 @@ pub fn integrate_1d(
     tol: Tolerance,
     max_evals: usize,
 ) -> Result<Estimate, QuadratureError> {
-    let rule = GaussKronrod::new(7)?;
-    integrate_1d_with(&rule, f, a, b, tol, max_evals)
+    static G7K15: OnceLock<GaussKronrod> = OnceLock::new();
+    let rule = match G7K15.get() {
+        Some(r) => r,
+        None => {
+            let r = GaussKronrod::new(7)?;
+            G7K15.get_or_init(|| r)
+        }
+    };
+    integrate_1d_with(rule, f, a, b, tol, max_evals)
 }
 
 /// [`integrate_1d`] with a caller-built Gauss–Kronrod pair (build once, reuse).

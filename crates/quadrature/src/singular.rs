@@ -21,6 +21,15 @@
 //! tensor Gauss rule converges only algebraically. The rules depend only on which
 //! corners coincide, never on the geometry (dihedral angle, patch sizes).
 //!
+//! Measured (tests in this module): the form factor between perpendicular unit
+//! squares sharing an edge (Hottel's closed form, 0.2000437...) is reached to 9e-11 at
+//! n = 8 and 1e-14 at n = 10 (6n⁴ points), in all 64 corner labellings; the plain
+//! tensor rule is still off by 5e-2 at n = 12. Sharing a vertex (closed form by
+//! form-factor algebra): 4e-12 at n = 8. The rate degrades gracefully with geometry
+//! that brings the transformed integrand's complex singularities closer: a 20°
+//! wedge needs n = 20 for 1e-14 (2.5e-8 at n = 12), 4:1 aspect ratios give ~1e-7 at
+//! n = 12.
+//!
 //! Layout: a 4D rule has points `(s, t, u, v)` in `[0,1]^4`, receiver `(s, t)` first,
 //! emitter `(u, v)` second, weights summing to 1.
 
@@ -836,5 +845,54 @@ mod tests {
         let m = crate::simplex::map_triangle(&r, &a, &b, &c).unwrap();
         let v = m.integrate(|p| 1.0 / (p[0] - 1.0).hypot(p[1] - 1.0));
         assert!((v - 2.0 * exact).abs() < 1e-12);
+    }
+
+    /// Edge-adjacent unit squares at any dihedral angle α: receiver `(s, t, 0)`,
+    /// emitter `(u, v cos α, v sin α)`, kernel `t v sin²α / (π r⁴)` with
+    /// `r² = (u-s)² + q`, `q = t² + v² - 2tv cos α`. Integrating `s, u` analytically,
+    /// `∫_{-1}^{1} (1-|z|) / (z² + q)² dz = atan(1/√q) / q^{3/2}`, leaves the 2D integral
+    /// `(sin²α/π) ∫∫ t v atan(1/√q) / q^{3/2} dt dv`, singular only at the corner
+    /// (0, 0): an independent estimator by [`duffy_square`].
+    #[test]
+    fn common_edge_rule_is_geometry_independent_across_dihedral_angles() {
+        let corner = duffy_square(40, [0.0, 0.0]).unwrap();
+        for deg in [20.0f64, 45.0, 60.0, 90.0, 120.0, 150.0, 175.0] {
+            let al = deg.to_radians();
+            let (sa, ca) = al.sin_cos();
+            let reduced = sa * sa / PI
+                * corner.integrate(|p| {
+                    let (t, v) = (p[0], p[1]);
+                    let q = t * t + v * v - 2.0 * t * v * ca;
+                    t * v * (1.0 / q.sqrt()).atan() / (q * q.sqrt())
+                });
+            if deg == 90.0 {
+                let hottel = hottel_perpendicular(1.0, 1.0, 1.0);
+                assert!((reduced - hottel).abs() < 1e-13, "{reduced} vs {hottel}");
+            }
+            let e = Flat {
+                origin: [0.0; 3],
+                eu: [1.0, 0.0, 0.0],
+                ev: [0.0, ca, sa],
+            };
+            let pair = SquarePair::common_edge(Corner::C00, Corner::C10, Corner::C00, Corner::C10)
+                .unwrap();
+            // Sharp wedges (small α) bring the complex singularities of the transformed
+            // integrand closer: still geometric, but slower (20°: 2.5e-8 at n = 12,
+            // 1e-14 at n = 20).
+            let v = form_factor(&square_pair_rule(pair, 12).unwrap(), &RECEIVER, &e);
+            assert!(
+                (v - reduced).abs() < 1e-7,
+                "α={deg}°: {v} vs {reduced} ({:e})",
+                v - reduced
+            );
+            if deg == 20.0 {
+                let v = form_factor(&square_pair_rule(pair, 20).unwrap(), &RECEIVER, &e);
+                assert!(
+                    (v - reduced).abs() < 1e-12,
+                    "α={deg}°, n=20: {:e}",
+                    v - reduced
+                );
+            }
+        }
     }
 }
