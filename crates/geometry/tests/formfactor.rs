@@ -335,3 +335,87 @@ fn contour_matches_lambert_quadrature_for_skew_triangles() {
     assert!(area > 0.0);
     assert!((c - q).abs() <= 1e-9 * c, "{c} vs {q}");
 }
+
+/// Nested adaptive Gauss–Kronrod (wavelux-quadrature) of Lambert's formula over a
+/// parallelogram source: an independent reference for the contour integral.
+fn adaptive_point_to_poly(src: (DVec3, DVec3, DVec3), dst: &[DVec3], tol: f64) -> f64 {
+    use wavelux_quadrature::{Tolerance, integrate_1d};
+    let (o, e1, e2) = src;
+    let nrm = e1.cross(e2).normalize();
+    let t = Tolerance::new(tol, tol).unwrap();
+    integrate_1d(
+        |y| {
+            integrate_1d(
+                |x| point_to_polygon(o + x * e1 + y * e2, nrm, dst).unwrap(),
+                0.0,
+                1.0,
+                t,
+                200_000,
+            )
+            .unwrap()
+            .value
+        },
+        0.0,
+        1.0,
+        t,
+        200_000,
+    )
+    .unwrap()
+    .value
+}
+
+#[test]
+fn catalog_contour_and_adaptive_quadrature_agree_with_shared_edge() {
+    // Perpendicular rectangles sharing an edge: the integrand of the area integral is
+    // non-smooth along the common edge, which the adaptive rule resolves.
+    for &(l, w, h) in &[(1.0, 1.0, 1.0), (2.0, 0.5, 0.7)] {
+        let cat = perpendicular_rectangles(l, w, h).unwrap();
+        let src = (
+            DVec3::ZERO,
+            DVec3::new(l, 0.0, 0.0),
+            DVec3::new(0.0, w, 0.0),
+        );
+        let dst = rect(
+            DVec3::ZERO,
+            DVec3::new(0.0, 0.0, h),
+            DVec3::new(l, 0.0, 0.0),
+        );
+        let adaptive = adaptive_point_to_poly(src, &dst, 1e-11);
+        let contour = polygon_to_polygon(&rect(src.0, src.1, src.2), &dst).unwrap();
+        assert!(
+            (adaptive - cat).abs() <= 1e-8,
+            "adaptive {adaptive} vs catalog {cat}"
+        );
+        assert!(
+            (adaptive - contour).abs() <= 1e-8,
+            "adaptive {adaptive} vs contour {contour}"
+        );
+    }
+    // Parallel opposed rectangles.
+    let cat = parallel_rectangles(1.0, 2.0, 0.5).unwrap();
+    let hi = rect(
+        DVec3::new(0.0, 0.0, 0.5),
+        DVec3::new(0.0, 2.0, 0.0),
+        DVec3::new(1.0, 0.0, 0.0),
+    );
+    let adaptive = adaptive_point_to_poly(
+        (DVec3::ZERO, DVec3::X, DVec3::new(0.0, 2.0, 0.0)),
+        &hi,
+        1e-12,
+    );
+    assert!((adaptive - cat).abs() <= 1e-9, "{adaptive} vs {cat}");
+}
+
+#[test]
+fn coplanar_pairs_and_invalid_input() {
+    // Two coplanar squares sharing an edge exchange nothing.
+    let a = rect(DVec3::ZERO, DVec3::X, DVec3::Y);
+    let b = rect(DVec3::X, DVec3::X, DVec3::Y);
+    let f = polygon_to_polygon(&a, &b).unwrap();
+    assert!(f.abs() <= 1e-14, "coplanar: {f}");
+    // Bad input is an error, not a panic.
+    assert!(polygon_to_polygon(&a[..2], &b).is_err());
+    assert!(point_to_polygon(DVec3::ZERO, DVec3::ZERO, &b).is_err());
+    assert!(parallel_rectangles(-1.0, 1.0, 1.0).is_err());
+    assert!(coaxial_disks(1.0, f64::NAN, 1.0).is_err());
+}
