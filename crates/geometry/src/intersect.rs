@@ -2,6 +2,7 @@
 //!
 //! - Triangles: the watertight test of Woop, Benthin & Wald (2013) in f64 (shear to ray
 //!   space, three edge functions), so two triangles sharing an edge leave no crack.
+//!   Rays within ~1e-10 rad of a planar primitive's plane do not hit it (grazing).
 //! - Parallelograms and planar polygons: plane hit, then the parameter-space test; the
 //!   test is dilated by 1e-9 of the primitive's size so abutting primitives never leak.
 //! - Trimmed patches: the implicit form of the surface (plane, sphere, spheroid,
@@ -65,6 +66,14 @@ pub fn triangle_raw(v: &[DVec3; 3], ray: &Ray, tmin: f64, tmax: f64) -> Option<(
     if det == 0.0 {
         return None;
     }
+    // Edge-on triangles (ray in the triangle's plane, to ~1e-10 rad) are not hit: a
+    // segment running inside a planar surface is not occluded by it (no acne between
+    // points of coplanar neighbours); a ray through a shared edge still hits the other,
+    // non-grazed face. Only evaluated for rays that passed the edge tests.
+    let n = (v[1] - v[0]).cross(v[2] - v[0]);
+    if n.dot(d).abs() <= 1e-10 * n.length() {
+        return None;
+    }
     let t = (u * sz * a[kz] + vv * sz * b[kz] + w * sz * c[kz]) / det;
     if !(t >= tmin && t <= tmax) {
         return None;
@@ -98,7 +107,8 @@ impl Triangle {
 
 fn plane_t(ray: &Ray, p0: DVec3, n: DVec3, tmin: f64, tmax: f64) -> Option<f64> {
     let den = ray.dir.dot(n);
-    if den == 0.0 {
+    // Rays in the plane (to ~1e-10 rad) do not hit it (see `triangle_raw`).
+    if den.abs() <= 1e-10 * n.length() {
         return None;
     }
     let t = (p0 - ray.origin).dot(n) / den;

@@ -201,24 +201,34 @@ fn no_leaks_through_shared_edges_and_corners() {
 fn no_self_shadowing_between_surface_points() {
     // Inside a closed box every pair of points on two faces sees each other, with and
     // without naming the end points' primitives; also inside a sphere.
-    let acc = Accel::build(box_prims(false, 2.0, DVec3::new(0.3, -1.0, 7.0))).unwrap();
-    let mut r = Pcg64::seed_from_u64(4);
-    for _ in 0..2000 {
-        let i = r.random_range(0..6usize);
-        let j = r.random_range(0..6usize);
-        if i == j {
-            continue;
+    for &(scale, off) in &[
+        (2.0, DVec3::new(0.3, -1.0, 7.0)),
+        (1e-3, DVec3::splat(3.0)),
+        (1e3, DVec3::splat(-5e3)),
+    ] {
+        for tris in [false, true] {
+            let acc = Accel::build(box_prims(tris, scale, off)).unwrap();
+            let n = acc.len();
+            let mut r = Pcg64::seed_from_u64(4);
+            for _ in 0..1000 {
+                let i = r.random_range(0..n);
+                let j = r.random_range(0..n);
+                let uvi = DVec2::new(r.random_range(0.0..1.0), r.random_range(0.0..1.0));
+                let uvj = DVec2::new(r.random_range(0.0..1.0), r.random_range(0.0..1.0));
+                let p = acc.primitives()[i].eval(uvi);
+                let q = acc.primitives()[j].eval(uvj);
+                assert!(
+                    !acc.occluded(p, q, [Some(i as u32), Some(j as u32)]),
+                    "scale {scale}"
+                );
+                assert!(
+                    !acc.occluded(p, q, [None, None]),
+                    "acne between {i} and {j} at scale {scale} (tris={tris})"
+                );
+            }
         }
-        let uvi = DVec2::new(r.random_range(0.0..1.0), r.random_range(0.0..1.0));
-        let uvj = DVec2::new(r.random_range(0.0..1.0), r.random_range(0.0..1.0));
-        let p = acc.primitives()[i].eval(uvi);
-        let q = acc.primitives()[j].eval(uvj);
-        assert!(!acc.occluded(p, q, [Some(i as u32), Some(j as u32)]));
-        assert!(
-            !acc.occluded(p, q, [None, None]),
-            "acne between faces {i} and {j}"
-        );
     }
+    let mut r = Pcg64::seed_from_u64(5);
     let f = param::Frame::from_axis(DVec3::new(1.0, 2.0, 3.0), DVec3::new(0.3, 0.1, 1.0)).unwrap();
     let sph: Arc<dyn param::Parametrization> = Arc::new(param::Sphere::full(f, 1.7).unwrap());
     let acc = Accel::build(vec![TrimmedPatch::new(sph.clone(), None).unwrap().into()]).unwrap();

@@ -200,7 +200,7 @@ fn implicit_value(q: &dyn param::Parametrization, p: DVec3) -> f64 {
     }
 }
 
-/// Brute force: march the implicit function in 40 000 steps over the box interval,
+/// Brute force: march the implicit function in 20 000 steps over the box interval,
 /// bisect sign changes, keep the first root whose inverse-mapped `uv` the trim keeps
 /// (trim decided by brute-force winding).
 fn march(patch: &TrimmedPatch, ray: &Ray) -> Option<(f64, DVec2)> {
@@ -208,7 +208,7 @@ fn march(patch: &TrimmedPatch, ray: &Ray) -> Option<(f64, DVec2)> {
     let (t0, t1) =
         b.expanded(1e-6 * b.diagonal().length())
             .intersect_ray(ray, 0.0, f64::INFINITY)?;
-    let n = 40_000;
+    let n = 20_000;
     let f = |t: f64| implicit_value(patch.surface.as_ref(), ray.at(t));
     let q = &patch.surface;
     let mut ta = t0;
