@@ -472,3 +472,33 @@ fn trimmed_patch_area_natural_and_equal_area() {
     assert!((p2.area() - ea.area() * t.area()).abs() <= 1e-12 * ea.area());
     assert!((t.integrate(16, |uv| ea.jacobian(uv)) - p2.area()).abs() <= 1e-10 * ea.area());
 }
+
+#[test]
+fn primitive_area_and_normal() {
+    // A bilinear-equivalent (flat) Bézier patch of a parallelogram: area and normal exact.
+    let (o, e1, e2) = (
+        DVec3::new(0.1, 0.2, 0.3),
+        DVec3::new(2.0, 0.1, 0.0),
+        DVec3::new(0.3, 1.5, 0.2),
+    );
+    let mut p = [[DVec3::ZERO; 4]; 4];
+    for i in 0..4 {
+        for j in 0..4 {
+            p[i][j] = o + (i as f64 / 3.0) * e1 + (j as f64 / 3.0) * e2;
+        }
+    }
+    let bz: Primitive = BezierPatch::new(p).unwrap().into();
+    let pg: Primitive = Parallelogram::new(o, e1, e2).unwrap().into();
+    assert!((bz.area() - pg.area()).abs() <= 1e-12 * pg.area());
+    let uv = DVec2::new(0.3, 0.7);
+    assert!((bz.normal(uv) - pg.normal(uv)).length() <= 1e-12);
+    assert!((bz.eval(uv) - pg.eval(uv)).length() <= 1e-12);
+    // Full sphere: area 4πr², outward normal.
+    let f = frame(DVec3::new(1.0, 2.0, 3.0), DVec3::Z);
+    let sph: Primitive = TrimmedPatch::new(Arc::new(param::Sphere::full(f, 0.7).unwrap()), None)
+        .unwrap()
+        .into();
+    assert!((sph.area() - 4.0 * PI * 0.49).abs() <= 1e-12);
+    let q = sph.eval(uv);
+    assert!((sph.normal(uv) - (q - DVec3::new(1.0, 2.0, 3.0)) / 0.7).length() <= 1e-12);
+}
