@@ -145,12 +145,10 @@ struct Outer {
 }
 
 impl Outer {
-    fn new() -> Outer {
-        // Order 20 is always available.
-        match GaussLegendre::new(20) {
-            Ok(gl) => Outer { gl },
-            Err(_) => unreachable!("Gauss–Legendre order 20 exists"),
-        }
+    fn new() -> Result<Outer, GeometryError> {
+        GaussLegendre::new(20)
+            .map(|gl| Outer { gl })
+            .map_err(|_| GeometryError::Degenerate("Gauss–Legendre rule of order 20 unavailable"))
     }
 
     /// `∫_a^b f` on a panel graded geometrically towards the end points `a`/`b` flagged.
@@ -264,7 +262,7 @@ fn edge_pair(outer: &Outer, p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
 pub fn area_form_factor(pi: &[DVec3], pj: &[DVec3]) -> Result<f64, GeometryError> {
     validate_polygon(pi)?;
     validate_polygon(pj)?;
-    let outer = Outer::new();
+    let outer = Outer::new()?;
     let mut sum = 0.0;
     for a in 0..pi.len() {
         let (p0, p1) = (pi[a], pi[(a + 1) % pi.len()]);

@@ -10,6 +10,17 @@
 //!   polygon-to-polygon, catalog configurations).
 //! - [`bezier`]: bicubic Bézier evaluation and subdivision.
 //! - [`intersect`]: exact ray intersection for every primitive; [`poly`]: robust polynomial roots.
+//!
+//! ```
+//! use glam::DVec3;
+//! use wavelux_geometry::{Accel, Parallelogram, Primitive};
+//!
+//! // A unit square blocker between two points.
+//! let wall = Parallelogram::new(DVec3::new(-0.5, -0.5, 1.0), DVec3::X, DVec3::Y).unwrap();
+//! let acc = Accel::build(vec![Primitive::from(wall)]).unwrap();
+//! assert!(acc.occluded(DVec3::ZERO, DVec3::new(0.0, 0.0, 2.0), [None, None]));
+//! assert!(!acc.occluded(DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), [None, None]));
+//! ```
 
 pub mod accel;
 pub mod bezier;

@@ -458,12 +458,11 @@ impl TrimRegion {
     }
 
     /// The whole unit square `[0,1]²`.
-    pub fn unit_square() -> TrimRegion {
-        // The rectangle loop is valid by construction.
-        match TrimLoop::rect(DVec2::ZERO, DVec2::ONE).and_then(|l| TrimRegion::new(vec![l])) {
-            Ok(r) => r,
-            Err(_) => unreachable!("unit square is a valid region"),
-        }
+    ///
+    /// # Errors
+    /// None in practice (the square is valid); kept fallible like every constructor.
+    pub fn unit_square() -> Result<TrimRegion, GeometryError> {
+        TrimRegion::new(vec![TrimLoop::rect(DVec2::ZERO, DVec2::ONE)?])
     }
 
     /// Winding number of the boundary around `p` in `O(log n)`: slab by binary search,
