@@ -1,1 +1,603 @@
-//! wavelux-solver: see the crate description; being built (this placeholder is replaced by the crate's modules).
+//! wavelux-solver: Galerkin wavelet radiosity on surfaces (Ziegler ch. 2–4).
+//!
+//! The radiosity equation `B(x) = E(x) + ρ(x) ∫ G(x,y) V(x,y) B(y) dA_y` (Ziegler
+//! §2.1; `E` is the emitted exitance of `wavelux-scene`) is discretized with
+//! orthonormal tree bases (Haar, Alpert multiwavelets `M_k`) on the unit-square
+//! support of every surface side, and compressed by top-down refinement of links
+//! between element pairs (Hanrahan et al. 1991, Gortler et al. 1993, Ziegler §2.2.3)
+//! driven by an oracle (Ziegler §2.4.2, §3.3.2). The hierarchical system with
+//! push/pull is the non-standard wavelet representation (see [`basis`] for the
+//! correspondence) and is solved by Picard, hierarchical Gauss–Seidel, GMRES or CGNR
+//! (`wavelux-linear`, Ziegler §2.3, §4.2).
+//!
+//! Modules:
+//! - [`support`]: equal-area unit-square supports and patches (one per lit side);
+//! - [`basis`]: 2D tree bases from `wavelux-mra`, two-scale (push/pull) matrices;
+//! - [`transfer`]: kernel, transfer blocks (regular Gauss, singular Sauter–Schwab
+//!   rules for touching elements, visibility in quadrature or fractional), oracle;
+//! - [`hierarchy`]: nodes, links, refinement, the compiled level-ordered hierarchy;
+//! - [`system`]: matrix-free `K`, `Kᵀ` and Gauss–Seidel sweeps (rayon, deterministic);
+//! - [`solution`]: [`Solution`], [`Energy`], [`Statistics`].
+//!
+//! Entry point: [`solve`] with a [`SolverConfig`].
+
+pub mod basis;
+pub mod error;
+pub mod hierarchy;
+pub mod solution;
+pub mod support;
+pub mod system;
+pub mod transfer;
+
+use std::time::{Duration, Instant};
+
+use wavelux_geometry::Accel;
+use wavelux_geometry::primitive::{ComplexPolygon, Parallelogram, PlaneFrame, Primitive, Triangle};
+use wavelux_geometry::{Edge2, TrimLoop, TrimRegion};
+use wavelux_linear::{
+    Convergence, IdentityMinus, IterationRecord, SolverOptions, StopReason, Work, cgnr, gmres,
+    picard,
+};
+use wavelux_scene::Scene;
+
+pub use basis::{BasisKind, TreeBasis};
+pub use error::SolverError;
+pub use hierarchy::{Hierarchy, LinkRec, NodeKey, Oracle, RefineParams, SplitPolicy};
+pub use solution::{Energy, Solution, Statistics};
+pub use support::{Patch, PatchSet, Side, Support, SupportMap, build_patches};
+pub use system::System;
+pub use transfer::{TransferCtx, TransferOptions, Visibility};
+
+/// The linear solver of the discrete system.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum LinearMethod {
+    /// Picard (Jacobi) iteration `x ← b + K x` (Ziegler §3.3.5).
+    Picard,
+    /// Hierarchical Gauss–Seidel: sweeps patch by patch over their links.
+    GaussSeidel,
+    /// Restarted GMRES on `(I − K) x = b`.
+    Gmres {
+        /// Restart length.
+        restart: usize,
+    },
+    /// CGNR on `(I − K) x = b`.
+    Cgnr,
+}
+
+/// The multigrid-like refine–solve loop (Ziegler Alg. 2.3.4): `stages` refine–solve
+/// rounds with thresholds `eps · factor^(stages−1−i)`; each round refines the links of
+/// the previous one and starts from its solution.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Multigrid {
+    /// Number of rounds (≥ 1).
+    pub stages: usize,
+    /// Ratio between consecutive thresholds (> 1).
+    pub factor: f64,
+}
+
+/// Solver configuration. `Default` gives Haar, `ε = 1e-3`, 5 levels, kernel
+/// smoothness oracle, visibility in quadrature with 3 Gauss points per axis, Picard
+/// with up to 200 iterations to a relative residual of `1e-10`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SolverConfig {
+    /// Basis.
+    pub basis: BasisKind,
+    /// Refinement threshold `ε` (dimensionless for the kernel oracle, W/m² for the
+    /// brightness oracle). `> 0`, finite.
+    pub eps: f64,
+    /// Deepest element level (`≤ 20`).
+    pub max_level: u8,
+    /// Smallest element area (scene units², `≥ 0`).
+    pub min_area: f64,
+    /// Oracle.
+    pub oracle: Oracle,
+    /// Split policy of refined links.
+    pub split: SplitPolicy,
+    /// Visibility mode of transfer blocks.
+    pub visibility: Visibility,
+    /// Whether oracle samples include visibility (shadow boundaries refine).
+    pub oracle_visibility: bool,
+    /// Gauss points per axis (`n_samp`, `1..=16`).
+    pub quad_points: usize,
+    /// Order of the singular rules (`1..=8`).
+    pub singular_order: usize,
+    /// Admissibility factor of the regular rule (`≥ 0.5`).
+    pub near_field: f64,
+    /// Maximum recursive quadrature splits of near pairs (`≤ 8`).
+    pub max_split_depth: u32,
+    /// Linear method.
+    pub linear_method: LinearMethod,
+    /// Maximum iterations (sweeps) per channel solve (`≥ 1`).
+    pub max_iterations: usize,
+    /// Relative residual tolerance (`≥ 0`, finite).
+    pub tolerance: f64,
+    /// Optional refine–solve loop.
+    pub multigrid: Option<Multigrid>,
+}
+
+impl Default for SolverConfig {
+    fn default() -> Self {
+        Self {
+            basis: BasisKind::Haar,
+            eps: 1e-3,
+            max_level: 5,
+            min_area: 0.0,
+            oracle: Oracle::KernelSmoothness,
+            split: SplitPolicy::Both,
+            visibility: Visibility::InQuadrature,
+            oracle_visibility: true,
+            quad_points: 3,
+            singular_order: 4,
+            near_field: 1.0,
+            max_split_depth: 3,
+            linear_method: LinearMethod::Picard,
+            max_iterations: 200,
+            tolerance: 1e-10,
+            multigrid: None,
+        }
+    }
+}
+
+fn bad(field: &'static str, value: impl std::fmt::Display, reason: &'static str) -> SolverError {
+    SolverError::InvalidConfig {
+        field,
+        value: value.to_string(),
+        reason,
+    }
+}
+
+impl SolverConfig {
+    /// Checks every field against its documented range.
+    ///
+    /// # Errors
+    /// [`SolverError::InvalidConfig`] naming the first bad field.
+    pub fn validate(&self) -> Result<(), SolverError> {
+        if !(self.eps.is_finite() && self.eps > 0.0) {
+            return Err(bad("eps", self.eps, "must be finite and > 0"));
+        }
+        if self.max_level > 20 {
+            return Err(bad("max_level", self.max_level, "must be <= 20"));
+        }
+        if !(self.min_area.is_finite() && self.min_area >= 0.0) {
+            return Err(bad("min_area", self.min_area, "must be finite and >= 0"));
+        }
+        if !(1..=16).contains(&self.quad_points) {
+            return Err(bad("quad_points", self.quad_points, "must be in 1..=16"));
+        }
+        if !(1..=8).contains(&self.singular_order) {
+            return Err(bad(
+                "singular_order",
+                self.singular_order,
+                "must be in 1..=8",
+            ));
+        }
+        if !(self.near_field.is_finite() && self.near_field >= 0.5) {
+            return Err(bad(
+                "near_field",
+                self.near_field,
+                "must be finite and >= 0.5",
+            ));
+        }
+        if self.max_split_depth > 8 {
+            return Err(bad("max_split_depth", self.max_split_depth, "must be <= 8"));
+        }
+        if self.max_iterations == 0 {
+            return Err(bad("max_iterations", 0, "must be >= 1"));
+        }
+        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
+            return Err(bad("tolerance", self.tolerance, "must be finite and >= 0"));
+        }
+        if let LinearMethod::Gmres { restart: 0 } = self.linear_method {
+            return Err(bad("linear_method.restart", 0, "must be >= 1"));
+        }
+        if let Some(m) = self.multigrid {
+            if m.stages == 0 {
+                return Err(bad("multigrid.stages", 0, "must be >= 1"));
+            }
+            if !(m.factor.is_finite() && m.factor > 1.0) {
+                return Err(bad("multigrid.factor", m.factor, "must be finite and > 1"));
+            }
+        }
+        Ok(())
+    }
+
+    fn transfer_options(&self) -> TransferOptions {
+        TransferOptions {
+            quad_points: self.quad_points,
+            singular_order: self.singular_order,
+            near_field: self.near_field,
+            max_split_depth: self.max_split_depth,
+            visibility: self.visibility,
+            oracle_visibility: self.oracle_visibility,
+        }
+    }
+}
+
+/// Everything built once per scene: patches, accelerator, basis.
+#[derive(Debug)]
+pub struct Prepared {
+    /// Patches.
+    pub patches: PatchSet,
+    /// Visibility accelerator over the supports.
+    pub accel: Accel,
+    /// Basis.
+    pub basis: TreeBasis,
+    /// Configuration.
+    pub config: SolverConfig,
+    setup_time: Duration,
+}
+
+impl Prepared {
+    /// Validates the configuration, builds patches (typed errors for unsupported
+    /// surfaces), the BVH and the basis.
+    ///
+    /// # Errors
+    /// [`SolverError`] variants for bad configuration, scene or basis.
+    pub fn new(scene: &Scene, config: &SolverConfig) -> Result<Self, SolverError> {
+        let t0 = Instant::now();
+        config.validate()?;
+        let patches = build_patches(scene)?;
+        if patches.patches.is_empty() {
+            return Err(SolverError::InvalidScene(
+                "the scene has no surfaces".into(),
+            ));
+        }
+        let prims: Vec<Primitive> = patches
+            .pieces
+            .iter()
+            .map(|s| -> Result<Primitive, SolverError> {
+                let map_err =
+                    |e: wavelux_geometry::GeometryError| SolverError::InvalidScene(e.to_string());
+                Ok(match s.map {
+                    SupportMap::Parallelogram {
+                        origin,
+                        edge_u,
+                        edge_v,
+                    } => Primitive::Parallelogram(
+                        Parallelogram::new(origin, edge_u, edge_v).map_err(map_err)?,
+                    ),
+                    SupportMap::Triangle { a, b, c } => {
+                        Primitive::Triangle(Triangle::new(a, b, c).map_err(map_err)?)
+                    }
+                    SupportMap::Disk {
+                        center,
+                        u,
+                        v,
+                        radius,
+                    } => {
+                        let frame = PlaneFrame::from_axes(center, u, v).map_err(map_err)?;
+                        let edge =
+                            Edge2::arc(glam::DVec2::ZERO, radius, 0.0, std::f64::consts::TAU)
+                                .map_err(map_err)?;
+                        let region =
+                            TrimRegion::new(vec![TrimLoop::new(vec![edge]).map_err(map_err)?])
+                                .map_err(map_err)?;
+                        Primitive::Polygon(Box::new(
+                            ComplexPolygon::new(frame, region).map_err(map_err)?,
+                        ))
+                    }
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        let accel = Accel::build(prims).map_err(|e| SolverError::Dependency {
+            what: "geometry",
+            message: e.to_string(),
+        })?;
+        let basis = TreeBasis::new(config.basis)?;
+        Ok(Self {
+            patches,
+            accel,
+            basis,
+            config: *config,
+            setup_time: t0.elapsed(),
+        })
+    }
+
+    /// A transfer context over these patches.
+    ///
+    /// # Errors
+    /// [`SolverError::Dependency`] if a quadrature rule cannot be built.
+    pub fn transfer(&self) -> Result<TransferCtx<'_>, SolverError> {
+        TransferCtx::new(
+            &self.patches.patches,
+            &self.accel,
+            &self.basis,
+            self.config.transfer_options(),
+        )
+    }
+
+    /// Refinement parameters of the configuration with threshold `eps`.
+    pub fn refine_params(&self, eps: f64) -> RefineParams {
+        RefineParams {
+            eps,
+            max_level: self.config.max_level,
+            min_area: self.config.min_area,
+            oracle: self.config.oracle,
+            split: self.config.split,
+        }
+    }
+
+    /// Whether every patch has equal channels (one solve serves all three).
+    pub fn is_grey(&self) -> bool {
+        self.patches.patches.iter().all(|p| {
+            p.reflectance.iter().all(|&r| r == p.reflectance[0])
+                && p.emission.iter().all(|&e| e == p.emission[0])
+        })
+    }
+}
+
+/// Solves one channel with a linear method; `x0` defaults to the emission `b`
+/// (Ziegler §4.2.2's initial guess). `reference` adds error records.
+///
+/// # Errors
+/// [`SolverError::Linear`] if the linear solver fails.
+pub fn solve_channel(
+    system: &System,
+    ch: usize,
+    method: LinearMethod,
+    max_iterations: usize,
+    tolerance: f64,
+    x0: Option<Vec<f64>>,
+    reference: Option<Vec<f64>>,
+) -> Result<(Vec<f64>, Convergence), SolverError> {
+    let b = system.emission(ch);
+    let x0 = x0.unwrap_or_else(|| b.clone());
+    let mut opts = SolverOptions::default()
+        .with_max_iterations(max_iterations)
+        .with_tolerance(tolerance)
+        .with_initial_guess(x0.clone());
+    if let Some(r) = reference.clone() {
+        opts = opts.with_reference(r);
+    }
+    if let LinearMethod::Gmres { restart } = method {
+        opts = opts.with_restart(restart);
+    }
+    let k = system.channel(ch);
+    let lin = |e: wavelux_linear::LinearError| SolverError::Linear(e.to_string());
+    let solve = match method {
+        LinearMethod::Picard => picard(&k, &b, &opts).map_err(lin)?,
+        LinearMethod::Gmres { .. } => gmres(&IdentityMinus::new(k), &b, &opts).map_err(lin)?,
+        LinearMethod::Cgnr => cgnr(&IdentityMinus::new(k), &b, &opts).map_err(lin)?,
+        LinearMethod::GaussSeidel => {
+            return Ok(gauss_seidel(
+                system,
+                ch,
+                &b,
+                x0,
+                max_iterations,
+                tolerance,
+                reference,
+            ));
+        }
+    };
+    Ok((solve.x, solve.history))
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+fn fixed_point_residual(system: &System, ch: usize, b: &[f64], x: &[f64]) -> f64 {
+    let mut kx = vec![0.0; x.len()];
+    system.apply_k(ch, x, &mut kx);
+    let r: Vec<f64> = (0..x.len()).map(|i| b[i] + kx[i] - x[i]).collect();
+    norm(&r)
+}
+
+fn gauss_seidel(
+    system: &System,
+    ch: usize,
+    b: &[f64],
+    mut x: Vec<f64>,
+    max_iterations: usize,
+    tolerance: f64,
+    reference: Option<Vec<f64>>,
+) -> (Vec<f64>, Convergence) {
+    let t0 = Instant::now();
+    let bn = norm(b);
+    let scale = if bn > 0.0 { bn } else { 1.0 };
+    let err = |x: &[f64]| {
+        reference.as_ref().map(|r| {
+            let d: Vec<f64> = x.iter().zip(r).map(|(a, b)| a - b).collect();
+            let rn = norm(r);
+            norm(&d) / if rn > 0.0 { rn } else { 1.0 }
+        })
+    };
+    let mut records = Vec::new();
+    let mut work = Work::default();
+    let mut res = fixed_point_residual(system, ch, b, &x);
+    records.push(IterationRecord {
+        iteration: 0,
+        residual_norm: res,
+        relative_residual: res / scale,
+        error: err(&x),
+        elapsed: t0.elapsed(),
+        work,
+    });
+    let mut reason = StopReason::MaxIterations;
+    for it in 1..=max_iterations {
+        if res / scale <= tolerance {
+            reason = StopReason::Converged;
+            break;
+        }
+        system.gauss_seidel_sweep(ch, b, &mut x);
+        work.applications += 1;
+        res = fixed_point_residual(system, ch, b, &x);
+        records.push(IterationRecord {
+            iteration: it,
+            residual_norm: res,
+            relative_residual: res / scale,
+            error: err(&x),
+            elapsed: t0.elapsed(),
+            work,
+        });
+    }
+    if res / scale <= tolerance {
+        reason = StopReason::Converged;
+    }
+    let conv = Convergence {
+        iterations: records,
+        converged: reason == StopReason::Converged,
+        reason,
+        final_relative_residual: res / scale,
+        safeguarded_updates: 0,
+    };
+    (x, conv)
+}
+
+/// Projects a previous solution onto a new hierarchy's leaves (channel `ch`): a leaf
+/// that existed takes its coefficients, a new leaf takes its deepest old ancestor's
+/// expansion pushed down.
+pub fn project_solution(
+    prev: &Solution,
+    system: &System,
+    basis: &TreeBasis,
+    ch: usize,
+) -> Vec<f64> {
+    let n = system.h.n;
+    let old = &prev.system.h;
+    let mut x = vec![0.0; system.dim()];
+    for (l, &i) in system.h.leaves.iter().enumerate() {
+        let key = system.h.keys[i as usize];
+        let mut path = Vec::new();
+        let mut k = key;
+        let found = loop {
+            if let Ok(j) = old.keys.binary_search(&k) {
+                break Some(j);
+            }
+            path.push(k.child_pos());
+            match k.parent() {
+                Some(p) => k = p,
+                None => break None,
+            }
+        };
+        let Some(j) = found else { continue };
+        let mut v = prev.node_b[ch][j * n..][..n].to_vec();
+        for &c in path.iter().rev() {
+            let m = basis.child_matrix(c);
+            let mut w = vec![0.0; n];
+            for bb in 0..n {
+                for a in 0..n {
+                    w[bb] += m[a * n + bb] * v[a];
+                }
+            }
+            v = w;
+        }
+        x[l * n..][..n].copy_from_slice(&v);
+    }
+    x
+}
+
+/// Refines, assembles and solves (see the crate docs).
+///
+/// # Errors
+/// [`SolverError`] for invalid configuration or scene, unsupported surfaces or basis,
+/// and linear-solver failures.
+pub fn solve(scene: &Scene, config: &SolverConfig) -> Result<Solution, SolverError> {
+    let prep = Prepared::new(scene, config)?;
+    solve_prepared(&prep)
+}
+
+/// [`solve`] on a prepared scene.
+///
+/// # Errors
+/// As [`solve`].
+pub fn solve_prepared(prep: &Prepared) -> Result<Solution, SolverError> {
+    let cfg = &prep.config;
+    let ctx = prep.transfer()?;
+    let stages = cfg.multigrid.map_or(1, |m| m.stages);
+    let factor = cfg.multigrid.map_or(1.0, |m| m.factor);
+    let mut links: Vec<LinkRec> = Vec::new();
+    let mut prev: Option<Solution> = None;
+    let mut stats = Statistics {
+        time_setup: prep.setup_time,
+        ..Statistics::default()
+    };
+    let grey = prep.is_grey();
+    let patches = &prep.patches.patches;
+    for stage in 0..stages {
+        let eps = cfg.eps * factor.powi((stages - 1 - stage) as i32);
+        let params = prep.refine_params(eps);
+        let t_ref = Instant::now();
+        let bright = |k: &NodeKey| -> f64 {
+            match &prev {
+                Some(s) => {
+                    let mut key = *k;
+                    loop {
+                        if let Some(v) = s.node_average(&key) {
+                            break v.iter().fold(0.0f64, |a, &b| a.max(b));
+                        }
+                        match key.parent() {
+                            Some(p) => key = p,
+                            None => break 0.0,
+                        }
+                    }
+                }
+                None => patches[k.patch as usize]
+                    .emission
+                    .iter()
+                    .fold(0.0f64, |a, &b| a.max(b)),
+            }
+        };
+        let (new_links, counts) = if stage == 0 {
+            hierarchy::refine_all(&ctx, &params, &bright)
+        } else {
+            hierarchy::rerefine(&ctx, &params, std::mem::take(&mut links), &bright)
+        };
+        links = new_links;
+        let h = Hierarchy::compile(prep.basis.n(), patches.len(), &links);
+        let system = System::new(h, &prep.basis, patches);
+        stats.time_refine += t_ref.elapsed();
+        stats.refined_links += counts.refined;
+        stats.oracle_evals += counts.oracle_evals;
+        stats.nonstandard_links = counts.refined + counts.unrefined_roots;
+        let t_sol = Instant::now();
+        let mut leaf_b: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::new());
+        let mut conv = Vec::new();
+        stats.iterations.clear();
+        let channels = if grey { 1 } else { 3 };
+        for ch in 0..channels {
+            let x0 = prev
+                .as_ref()
+                .map(|p| project_solution(p, &system, &prep.basis, ch));
+            let (x, c) = solve_channel(
+                &system,
+                ch,
+                cfg.linear_method,
+                cfg.max_iterations,
+                cfg.tolerance,
+                x0,
+                None,
+            )?;
+            stats.iterations.push(c.iterations.len() - 1);
+            conv.push(c);
+            leaf_b[ch] = x;
+        }
+        if grey {
+            leaf_b[1] = leaf_b[0].clone();
+            leaf_b[2] = leaf_b[0].clone();
+        }
+        stats.time_solve += t_sol.elapsed();
+        stats.stages = stage + 1;
+        stats.elements = system.h.node_count();
+        stats.leaves = system.h.leaves.len();
+        stats.links = system.h.link_count();
+        stats.kernel_evals = ctx.kernel_evals.load(std::sync::atomic::Ordering::Relaxed);
+        stats.rays = ctx.rays.load(std::sync::atomic::Ordering::Relaxed);
+        stats.bytes = system.h.bytes()
+            + links.capacity() * std::mem::size_of::<LinkRec>()
+            + links.iter().map(|l| l.block.capacity() * 8).sum::<usize>();
+        let basis = TreeBasis::new(cfg.basis)?;
+        prev = Some(Solution::new(
+            patches.clone(),
+            prep.patches.by_surface.clone(),
+            system,
+            basis,
+            leaf_b,
+            stats.clone(),
+            conv,
+        ));
+    }
+    prev.ok_or_else(|| SolverError::InvalidScene("no stage ran".into()))
+}

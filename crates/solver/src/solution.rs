@@ -1,0 +1,246 @@
+//! The result of a solve: radiosity at `(patch, s, t)`, area averages per patch and
+//! surface, energy accounting and statistics.
+
+use std::time::Duration;
+
+use wavelux_linear::Convergence;
+
+use crate::basis::TreeBasis;
+use crate::hierarchy::NodeKey;
+use crate::support::{Patch, Side};
+use crate::system::System;
+
+/// Energy accounting (W, per RGB channel).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Energy {
+    /// Emitted power `Σ E·A`.
+    pub emitted: [f64; 3],
+    /// Absorbed power `Σ (1 − ρ) ∫H dA` over all receiving sides.
+    pub absorbed: [f64; 3],
+    /// Power that leaves the modelled sides without arriving at one (open scenes,
+    /// back sides of one-sided surfaces): `Σ ∫B − Σ ∫H`.
+    pub escaped: [f64; 3],
+    /// Power not yet propagated by the iteration: `Σ ∫ (E + ρH − B)`.
+    pub unshot: [f64; 3],
+}
+
+/// Statistics of a solve.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Statistics {
+    /// Quadtree nodes (elements) over all patches.
+    pub elements: usize,
+    /// Leaves (unknown blocks).
+    pub leaves: usize,
+    /// Links (transfer blocks) stored.
+    pub links: usize,
+    /// Links split during refinement.
+    pub refined_links: u64,
+    /// Ziegler's count (§3.3.3): cell pairs whose 15 wavelet form factors (16 on
+    /// level 0) were computed, i.e. refined links plus unrefined root links.
+    pub nonstandard_links: u64,
+    /// Oracle evaluations.
+    pub oracle_evals: u64,
+    /// Kernel evaluations (quadrature and oracle samples).
+    pub kernel_evals: u64,
+    /// Shadow rays.
+    pub rays: u64,
+    /// Bytes held by the hierarchy, links and solution vectors (capacity estimate).
+    pub bytes: usize,
+    /// Wall time of supports, accelerator and rule setup.
+    pub time_setup: Duration,
+    /// Wall time of refinement and link computation.
+    pub time_refine: Duration,
+    /// Wall time of the linear solves.
+    pub time_solve: Duration,
+    /// Iterations per channel solve.
+    pub iterations: Vec<usize>,
+    /// Refine–solve stages (1 without the multigrid-like loop).
+    pub stages: usize,
+}
+
+/// A radiosity solution.
+#[derive(Debug, Clone)]
+pub struct Solution {
+    /// Patches (supports with materials) the solution lives on.
+    pub patches: Vec<Patch>,
+    /// Patch indices per scene surface.
+    pub by_surface: Vec<Vec<usize>>,
+    /// The system (hierarchy and links) that was solved.
+    pub system: System,
+    basis: TreeBasisHandle,
+    /// Radiosity coefficients at every node (pulled), per channel.
+    pub node_b: [Vec<f64>; 3],
+    /// Irradiance coefficients at every leaf, per channel.
+    pub leaf_h: [Vec<f64>; 3],
+    /// Energy accounting.
+    pub energy: Energy,
+    /// Statistics.
+    pub stats: Statistics,
+    /// Convergence records of the (last stage's) channel solves.
+    pub convergence: Vec<Convergence>,
+}
+
+#[derive(Debug)]
+struct TreeBasisHandle(TreeBasis);
+
+impl Clone for TreeBasisHandle {
+    fn clone(&self) -> Self {
+        // Rebuilding cannot fail for a kind that was built once.
+        match TreeBasis::new(self.0.kind()) {
+            Ok(b) => Self(b),
+            Err(_) => unreachable!("a basis kind that was built once builds again"),
+        }
+    }
+}
+
+impl Solution {
+    /// Assembles a solution from leaf radiosity coefficients per channel.
+    pub fn new(
+        patches: Vec<Patch>,
+        by_surface: Vec<Vec<usize>>,
+        system: System,
+        basis: TreeBasis,
+        leaf_b: [Vec<f64>; 3],
+        stats: Statistics,
+        convergence: Vec<Convergence>,
+    ) -> Self {
+        let n = system.h.n;
+        let nn = system.h.node_count() * n;
+        let mut node_b: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; nn]);
+        let mut leaf_h: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::new());
+        let mut energy = Energy::default();
+        let ints = system.integrals().to_vec();
+        for ch in 0..3 {
+            system.pull_from_leaves(&leaf_b[ch], &mut node_b[ch]);
+            leaf_h[ch] = system.irradiance(&leaf_b[ch]);
+            let mut sum_b = 0.0;
+            let mut sum_h = 0.0;
+            let mut abs = 0.0;
+            let mut unshot = 0.0;
+            for (l, &i) in system.h.leaves.iter().enumerate() {
+                let s = system.node_area[i as usize].sqrt();
+                let p = system.h.keys[i as usize].patch as usize;
+                let rho = system.leaf_rho[l][ch];
+                let e = system.patch_emission[p][ch];
+                let mut ib = 0.0;
+                let mut ih = 0.0;
+                for a in 0..n {
+                    ib += leaf_b[ch][l * n + a] * s * ints[a];
+                    ih += leaf_h[ch][l * n + a] * s * ints[a];
+                }
+                let area = system.node_area[i as usize];
+                sum_b += ib;
+                sum_h += ih;
+                abs += (1.0 - rho) * ih;
+                unshot += e * area + rho * ih - ib;
+                energy.emitted[ch] += e * area;
+            }
+            energy.absorbed[ch] = abs;
+            energy.escaped[ch] = sum_b - sum_h;
+            energy.unshot[ch] = unshot;
+        }
+        let mut stats = stats;
+        stats.bytes += (node_b.iter().map(|v| v.capacity()).sum::<usize>()
+            + leaf_h.iter().map(|v| v.capacity()).sum::<usize>())
+            * 8;
+        Self {
+            patches,
+            by_surface,
+            system,
+            basis: TreeBasisHandle(basis),
+            node_b,
+            leaf_h,
+            energy,
+            stats,
+            convergence,
+        }
+    }
+
+    /// The basis.
+    pub fn basis(&self) -> &TreeBasis {
+        &self.basis.0
+    }
+
+    /// Radiosity (W/m², RGB) at parameter point `(s, t) ∈ [0,1]²` of a patch.
+    ///
+    /// # Panics
+    /// If `patch` is out of range.
+    pub fn radiosity(&self, patch: usize, s: f64, t: f64) -> [f64; 3] {
+        let h = &self.system.h;
+        let n = h.n;
+        let leaf = h.leaf_at(patch, s, t) as usize;
+        let k = h.keys[leaf];
+        let reg = k.region();
+        let mut vals = [0.0; 16];
+        self.basis.0.eval(
+            (s.clamp(0.0, 1.0) - reg.s0) / reg.h,
+            (t.clamp(0.0, 1.0) - reg.t0) / reg.h,
+            &mut vals[..n],
+        );
+        let inv = 1.0 / self.system.node_area[leaf].sqrt();
+        std::array::from_fn(|ch| {
+            (0..n)
+                .map(|a| self.node_b[ch][leaf * n + a] * vals[a])
+                .sum::<f64>()
+                * inv
+        })
+    }
+
+    /// Average radiosity over a node's cell, if the node exists.
+    pub fn node_average(&self, key: &NodeKey) -> Option<[f64; 3]> {
+        let h = &self.system.h;
+        let i = h.keys.binary_search(key).ok()?;
+        Some(self.average_of(i))
+    }
+
+    fn average_of(&self, i: usize) -> [f64; 3] {
+        let n = self.system.h.n;
+        let ints = self.system.integrals();
+        let inv = 1.0 / self.system.node_area[i].sqrt();
+        std::array::from_fn(|ch| {
+            (0..n)
+                .map(|a| self.node_b[ch][i * n + a] * ints[a])
+                .sum::<f64>()
+                * inv
+        })
+    }
+
+    /// Area-average radiosity of a patch.
+    ///
+    /// # Panics
+    /// If `patch` is out of range.
+    pub fn patch_average(&self, patch: usize) -> [f64; 3] {
+        self.average_of(self.system.h.roots[patch] as usize)
+    }
+
+    /// Area-average radiosity of a scene surface's front side (all its pieces).
+    ///
+    /// # Panics
+    /// If `surface` is out of range.
+    pub fn surface_average(&self, surface: usize) -> [f64; 3] {
+        let mut acc = [0.0; 3];
+        let mut area = 0.0;
+        for &p in &self.by_surface[surface] {
+            if self.patches[p].side != Side::Front {
+                continue;
+            }
+            let a = self.patches[p].support.area;
+            let v = self.patch_average(p);
+            for c in 0..3 {
+                acc[c] += a * v[c];
+            }
+            area += a;
+        }
+        acc.map(|v| v / area)
+    }
+
+    /// Leaf radiosity coefficients of one channel (the solver's unknowns).
+    pub fn leaf_coefficients(&self, ch: usize) -> Vec<f64> {
+        let n = self.system.h.n;
+        let mut x = vec![0.0; self.system.dim()];
+        for (l, &i) in self.system.h.leaves.iter().enumerate() {
+            x[l * n..][..n].copy_from_slice(&self.node_b[ch][i as usize * n..][..n]);
+        }
+        x
+    }
+}
