@@ -31,6 +31,7 @@ pub mod transfer;
 
 use std::time::{Duration, Instant};
 
+use glam::DVec3;
 use wavelux_geometry::Accel;
 use wavelux_geometry::primitive::{ComplexPolygon, Parallelogram, PlaneFrame, Primitive, Triangle};
 use wavelux_geometry::{Edge2, TrimLoop, TrimRegion};
@@ -219,8 +220,10 @@ impl SolverConfig {
 pub struct Prepared {
     /// Patches.
     pub patches: PatchSet,
-    /// Visibility accelerator over the supports.
+    /// Visibility accelerator over the supports (in the normalised frame).
     pub accel: Accel,
+    /// `(centre, size)` of the normalised frame: the accelerator holds `(p − c)/s`.
+    pub frame: (DVec3, f64),
     /// Basis.
     pub basis: TreeBasis,
     /// Configuration.
@@ -243,6 +246,31 @@ impl Prepared {
                 "the scene has no surfaces".into(),
             ));
         }
+        // Normalise into a unit-size frame for the BVH (its f32 traversal is not
+        // scale-independent: occlusion is missed for scenes of size ~1e-4). The
+        // factor is a power of two, so unit-size scenes are untouched and scaled copies
+        // of a scene by powers of two see bitwise the same rays.
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for s in &patches.pieces {
+            for p in s.corners(0.0, 0.0, 1.0) {
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+            if let SupportMap::Disk { center, radius, .. } = s.map {
+                lo = lo.min(center - DVec3::splat(radius));
+                hi = hi.max(center + DVec3::splat(radius));
+            }
+        }
+        let center = DVec3::ZERO;
+        let diag = (hi - lo).length();
+        if !(diag.is_finite() && diag > 0.0) {
+            return Err(SolverError::InvalidScene("degenerate scene bounds".into()));
+        }
+        // A power of two, so the normalisation is exact: diag / size ∈ [1, 2).
+        let size = 2f64.powi(diag.log2().floor() as i32);
+        let frame = (center, size);
+        let nrm = |p: DVec3| (p - center) / size;
         let prims: Vec<Primitive> = patches
             .pieces
             .iter()
@@ -255,10 +283,11 @@ impl Prepared {
                         edge_u,
                         edge_v,
                     } => Primitive::Parallelogram(
-                        Parallelogram::new(origin, edge_u, edge_v).map_err(map_err)?,
+                        Parallelogram::new(nrm(origin), edge_u / size, edge_v / size)
+                            .map_err(map_err)?,
                     ),
                     SupportMap::Triangle { a, b, c } => {
-                        Primitive::Triangle(Triangle::new(a, b, c).map_err(map_err)?)
+                        Primitive::Triangle(Triangle::new(nrm(a), nrm(b), nrm(c)).map_err(map_err)?)
                     }
                     SupportMap::Disk {
                         center,
@@ -288,6 +317,7 @@ impl Prepared {
         Ok(Self {
             patches,
             accel,
+            frame,
             basis,
             config: *config,
             setup_time: t0.elapsed(),
@@ -302,6 +332,7 @@ impl Prepared {
         TransferCtx::new(
             &self.patches.patches,
             &self.accel,
+            self.frame,
             &self.basis,
             self.config.transfer_options(),
         )

@@ -104,6 +104,8 @@ pub struct TransferCtx<'a> {
     /// The patches.
     pub patches: &'a [Patch],
     accel: &'a Accel,
+    /// Normalisation of ray end points into the accelerator's frame.
+    frame: (DVec3, f64),
     basis: &'a TreeBasis,
     visibility: Visibility,
     oracle_visibility: bool,
@@ -153,9 +155,14 @@ impl<'a> TransferCtx<'a> {
     ///
     /// # Errors
     /// [`SolverError::Dependency`] if a rule cannot be built.
+    ///
+    /// `frame = (c, s)`: the accelerator holds the supports mapped by
+    /// `p ↦ (p − c)/s` (see [`crate::Prepared`]: a unit-size frame keeps the f32 BVH
+    /// traversal scale-independent).
     pub fn new(
         patches: &'a [Patch],
         accel: &'a Accel,
+        frame: (DVec3, f64),
         basis: &'a TreeBasis,
         opts: TransferOptions,
     ) -> Result<Self, SolverError> {
@@ -201,6 +208,7 @@ impl<'a> TransferCtx<'a> {
         Ok(Self {
             patches,
             accel,
+            frame,
             basis,
             visibility: opts.visibility,
             oracle_visibility: opts.oracle_visibility,
@@ -224,7 +232,10 @@ impl<'a> TransferCtx<'a> {
     #[inline]
     fn visible(&self, x: DVec3, pr: &Patch, y: DVec3, pe: &Patch, rays: &mut u64) -> bool {
         *rays += 1;
-        !self.accel.occluded(x, y, [Some(pr.prim), Some(pe.prim)])
+        let (c, s) = self.frame;
+        !self
+            .accel
+            .occluded((x - c) / s, (y - c) / s, [Some(pr.prim), Some(pe.prim)])
     }
 
     /// Whether some point of `e` is strictly in front of `r`'s plane and vice versa
