@@ -8,6 +8,7 @@ pub use wavelux_linear as linear;
 pub use wavelux_mra as mra;
 pub use wavelux_param as param;
 pub use wavelux_quadrature as quadrature;
+pub use wavelux_render as render;
 pub use wavelux_scene as scene;
 pub use wavelux_solver as solver;
 
@@ -40,5 +41,9 @@ pub const CRATES: &[(&str, &str)] = &[
     (
         "wavelux-solver",
         "wavelet radiosity: hierarchies, links, oracles, gathering and shooting",
+    ),
+    (
+        "wavelux-render",
+        "cameras, EXR/PNG images, final gather, exports, Monte Carlo reference",
     ),
 ];

@@ -1,0 +1,1 @@
+//! wavelux-render: see the crate description; being built (this placeholder is replaced by the crate's modules).
