@@ -353,11 +353,13 @@ proptest! {
 
 #[test]
 fn twenty_levels_constant_and_zero() {
-    for m in [
-        Box::new(Alpert::haar()) as Box<dyn Mra>,
-        Box::new(Cdv::new()),
-    ] {
-        let top = 20u32;
+    let cases: Vec<(Box<dyn Mra>, u32)> = vec![
+        (Box::new(Alpert::haar()), 20),
+        (Box::new(Alpert::new(2).unwrap()), 19),
+        (Box::new(Alpert::new(4).unwrap()), 18),
+        (Box::new(Cdv::new()), 20),
+    ];
+    for (m, top) in cases {
         let n = m.len(top);
         assert_eq!(n, 1 << 20);
         // Constant data: for Haar this is the constant function, whose wavelet

@@ -1,4 +1,5 @@
 //! Cross-crate ground truth for wavelux: one integration-test binary, one module per
 //! topic.
 
+mod mra_quadrature;
 mod workspace;
