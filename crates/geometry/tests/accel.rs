@@ -264,3 +264,62 @@ fn curved_primitives_still_shadow_themselves() {
     let q2 = DVec3::new(1.3 * a.cos(), 1.3 * a.sin(), 0.0);
     assert!(!acc.occluded(p, q2, [Some(0), Some(0)]));
 }
+
+#[test]
+fn exact_sphere_closure_with_trimmed_patches_and_visibility() {
+    // Inside a sphere the kernel cos θx cos θy / (π r²) is the constant 1/(4πR²), so
+    // F_ij = A_j / (4πR²) and Σ_j F_ij = 1 (self-exchange included). Two trimmed patches
+    // of an equal-area sphere (a disk in (u, v) with an arc boundary, and the rest) are
+    // integrated with slab-cell Gauss–Legendre rules, the visibility of every pair of
+    // points queried through the accelerator.
+    let radius = 1.3;
+    let f = param::Frame::from_axis(DVec3::new(0.2, -0.4, 1.0), DVec3::new(0.3, 0.1, 1.0)).unwrap();
+    let sph: Arc<dyn param::Parametrization> = Arc::new(param::Sphere::full(f, radius).unwrap());
+    let disk = TrimRegion::new(vec![TrimLoop::circle(DVec2::splat(0.5), 0.3).unwrap()]).unwrap();
+    let rest = TrimRegion::new(vec![
+        TrimLoop::rect(DVec2::ZERO, DVec2::ONE).unwrap(),
+        TrimLoop::circle(DVec2::splat(0.5), 0.3).unwrap().reversed(),
+    ])
+    .unwrap();
+    let patches = [
+        TrimmedPatch::new(sph.clone(), Some(disk)).unwrap(),
+        TrimmedPatch::new(sph.clone(), Some(rest)).unwrap(),
+    ];
+    let acc = Accel::build(patches.iter().cloned().map(Primitive::from).collect()).unwrap();
+    let total = 4.0 * PI * radius * radius;
+    assert!((patches[0].area() + patches[1].area() - total).abs() <= 1e-12 * total);
+    let jac = sph.area();
+    let mut blocked = 0usize;
+    for i in 0..2 {
+        let ti = patches[i].trim.as_ref().unwrap();
+        let mut row = 0.0;
+        for j in 0..2 {
+            let tj = patches[j].trim.as_ref().unwrap();
+            let fij = ti.integrate(10, |ui| {
+                let x = sph.position(ui);
+                let nx = -sph.normal(ui);
+                // A different order inside keeps the two point sets disjoint (i == j).
+                tj.integrate(11, |uj| {
+                    let y = sph.position(uj);
+                    let ny = -sph.normal(uj);
+                    let d = y - x;
+                    let r2 = d.length_squared();
+                    assert!(r2 > 0.0);
+                    if acc.occluded(x, y, [Some(i as u32), Some(j as u32)]) {
+                        blocked += 1;
+                        return 0.0;
+                    }
+                    nx.dot(d) * ny.dot(-d) / (PI * r2 * r2) * jac * jac
+                })
+            }) / patches[i].area();
+            assert!(
+                (fij - patches[j].area() / total).abs() <= 1e-10,
+                "F_{i}{j} = {fij}, expected {}, {blocked} blocked",
+                patches[j].area() / total
+            );
+            row += fij;
+        }
+        assert!((row - 1.0).abs() <= 1e-10, "closure row {i}: {}", row - 1.0);
+    }
+    assert_eq!(blocked, 0, "points inside a sphere all see each other");
+}
