@@ -10,7 +10,8 @@
 //!   integrated in the outer variable by Gauss–Legendre on panels split at every point
 //!   where the integrand is not analytic (projections of the other edge's end points,
 //!   closest approach) and geometrically graded towards them, which handles shared
-//!   vertices and shared edges robustly to ~1e-14 relative.
+//!   vertices and shared edges robustly to ~1e-14 relative. Each polygon is first
+//!   clipped to the other's front half-space, so any relative position is exact.
 //!   Deviation: the outer integral of skew pairs is not the dilogarithm closed form.
 //! - Catalog configurations (Howell's catalog): [`parallel_rectangles`],
 //!   [`perpendicular_rectangles`], [`coaxial_disks`], [`point_to_parallel_rectangle_corner`],
@@ -253,21 +254,28 @@ fn edge_pair(outer: &Outer, p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
 }
 
 /// `A_i F_ij` between two planar polygons (vertices counter-clockwise about each
-/// polygon's front normal; unoccluded; the result assumes each sees the other's front,
-/// i.e. it is the contour integral, which equals `A_i F_ij` when both polygons lie in
-/// each other's front half-space). Robust when they share edges or vertices.
+/// polygon's front normal), unoccluded, for any relative position: `pi` is first
+/// clipped to the front half-space of `pj` and `pj` to that of `pi` (where both
+/// cosines are positive), then the contour integral is evaluated on the clipped
+/// polygons. Robust when they share edges or vertices; 0 for coplanar or
+/// back-to-back polygons.
 ///
 /// # Errors
 /// Fewer than 3 vertices or non-finite vertices.
 pub fn area_form_factor(pi: &[DVec3], pj: &[DVec3]) -> Result<f64, GeometryError> {
     validate_polygon(pi)?;
     validate_polygon(pj)?;
+    let ci = clip_to_halfspace(pi, pj[0], newell(pj));
+    let cj = clip_to_halfspace(pj, pi[0], newell(pi));
+    if ci.len() < 3 || cj.len() < 3 {
+        return Ok(0.0);
+    }
     let outer = Outer::new()?;
     let mut sum = 0.0;
-    for a in 0..pi.len() {
-        let (p0, p1) = (pi[a], pi[(a + 1) % pi.len()]);
-        for b in 0..pj.len() {
-            let (q0, q1) = (pj[b], pj[(b + 1) % pj.len()]);
+    for a in 0..ci.len() {
+        let (p0, p1) = (ci[a], ci[(a + 1) % ci.len()]);
+        for b in 0..cj.len() {
+            let (q0, q1) = (cj[b], cj[(b + 1) % cj.len()]);
             sum += edge_pair(&outer, p0, p1, q0, q1);
         }
     }

@@ -419,3 +419,32 @@ fn coplanar_pairs_and_invalid_input() {
     assert!(parallel_rectangles(-1.0, 1.0, 1.0).is_err());
     assert!(coaxial_disks(1.0, f64::NAN, 1.0).is_err());
 }
+
+#[test]
+fn straddling_and_back_to_back_polygons() {
+    // Floor [−1,1]×[0,1] (normal +z) and a wall in x = 0 spanning z ∈ [−1,1] (normal +x):
+    // only the floor's x > 0 half and the wall's z > 0 half exchange, as perpendicular
+    // rectangles with a common edge of length 1, width 1, height 1.
+    let floor = rect(
+        DVec3::new(-1.0, 0.0, 0.0),
+        DVec3::new(2.0, 0.0, 0.0),
+        DVec3::Y,
+    );
+    let wall = rect(
+        DVec3::new(0.0, 0.0, -1.0),
+        DVec3::Y,
+        DVec3::new(0.0, 0.0, 2.0),
+    );
+    let f = polygon_to_polygon(&floor, &wall).unwrap();
+    let want = 0.5 * perpendicular_rectangles(1.0, 1.0, 1.0).unwrap();
+    assert!((f - want).abs() <= 1e-13, "{f} vs {want}");
+    let back = polygon_to_polygon(&wall, &floor).unwrap();
+    assert!(
+        (2.0 * f - 2.0 * back).abs() <= 1e-13,
+        "reciprocity (equal areas)"
+    );
+    // Back to back: nothing.
+    let up = rect(DVec3::ZERO, DVec3::X, DVec3::Y);
+    let down = rect(DVec3::new(0.0, 0.0, -1.0), DVec3::X, DVec3::Y);
+    assert_eq!(polygon_to_polygon(&up, &down).unwrap(), 0.0);
+}
