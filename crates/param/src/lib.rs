@@ -40,6 +40,8 @@ mod surface;
 mod torus;
 
 pub use bezier_patch::BezierPatch;
+/// The vector types of the public API (`DVec2`, `DVec3`), re-exported.
+pub use glam;
 pub use curves::{BezierCurve, Cardioid, Curve, Helix};
 pub use direction::{
     ConcentricHemisphere, DirectionMap, GlossyHemisphere, OctahedralSphere,
