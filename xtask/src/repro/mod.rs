@@ -9,6 +9,8 @@ pub mod ziegler_3_1_4;
 use crate::report::Report;
 use crate::reproduce::Ctx;
 
+mod virtual_mesh_fig4;
+
 /// One registered reproduction.
 pub struct Reproduction {
     /// Stable identifier used by `--only` and as the report file name.
@@ -25,11 +27,20 @@ pub struct Reproduction {
 
 /// Every registered reproduction, in report order.
 pub fn all() -> Vec<Reproduction> {
-    vec![Reproduction {
-        id: "ziegler-3.1.4",
-        source: "Ziegler §3.1.4, Figs. 3.5–3.6 and tables",
-        seed_file: "004_cb5b08859768bf36.txt",
-        title: "Haar vs multiwavelets vs CDV: projections, compression and L1 errors",
-        run: ziegler_3_1_4::run,
-    }]
+    vec![
+        Reproduction {
+            id: "ziegler-3.1.4",
+            source: "Ziegler §3.1.4, Figs. 3.5–3.6 and tables",
+            seed_file: "004_cb5b08859768bf36.txt",
+            title: "Haar vs multiwavelets vs CDV: projections, compression and L1 errors",
+            run: ziegler_3_1_4::run,
+        },
+        Reproduction {
+            id: "virtual-mesh-fig4",
+            source: "VirtualMesh §3.1.3, Fig. 4",
+            seed_file: "001_663a8814abd90f9c.txt",
+            title: "Ring-torus patch flattened by a constant-Jacobian map vs natural coordinates",
+            run: virtual_mesh_fig4::run,
+        },
+    ]
 }
