@@ -111,7 +111,8 @@ impl TriangleMesh {
     /// drops degenerate triangles (counted in [`MeshBuild::dropped`]) and merges exact
     /// parallelogram pairs.
     ///
-    /// Merge rule (deterministic, greedy in triangle order): triangle `t = (r, p, q)`
+    /// Merge rule (deterministic, greedy in triangle order, each triangle's edges tried
+    /// longest first): triangle `t = (r, p, q)`
     /// merges with the first unmerged triangle `t'` that traverses the edge `(q, p)`
     /// (the same edge in the opposite direction, i.e. consistent orientation) when
     /// `|r + s − p − q| <= MERGE_REL · |p − q|` with `s` the third vertex of `t'`:
@@ -159,23 +160,41 @@ impl TriangleMesh {
                 kept.push(*tri);
             }
         }
-        // Canonical vertex ids by exact position, so that seams still merge.
-        let mut canon: std::collections::HashMap<[u64; 3], u32> = Default::default();
-        let ids: Vec<u32> = positions
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                let key = p.to_array().map(|c| (c + 0.0).to_bits());
-                *canon.entry(key).or_insert(i as u32)
-            })
-            .collect();
-        let mut edge_owner: std::collections::HashMap<(u32, u32), Vec<usize>> = Default::default();
+        // Canonical vertex ids by exact position (the smallest index among equal
+        // positions), so that seams still merge. Sorting keeps this deterministic and
+        // free of hashing.
+        let key_of = |p: DVec3| p.to_array().map(|c| (c + 0.0).to_bits());
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        order.sort_unstable_by_key(|&i| (key_of(positions[i as usize]), i));
+        let mut ids = vec![0u32; n];
+        let mut g = 0;
+        while g < order.len() {
+            let first = order[g];
+            let key = key_of(positions[first as usize]);
+            let mut h = g;
+            while h < order.len() && key_of(positions[order[h] as usize]) == key {
+                ids[order[h] as usize] = first;
+                h += 1;
+            }
+            g = h;
+        }
+        // Directed edges (a, b) → triangle, sorted for binary search.
+        let mut edges: Vec<(u64, u32)> = Vec::with_capacity(3 * kept.len());
         for (t, tri) in kept.iter().enumerate() {
             for e in 0..3 {
                 let (a, b) = (ids[tri[e] as usize], ids[tri[(e + 1) % 3] as usize]);
-                edge_owner.entry((a, b)).or_default().push(t);
+                edges.push(((u64::from(a) << 32) | u64::from(b), t as u32));
             }
         }
+        edges.sort_unstable();
+        let owners = |a: u32, b: u32| {
+            let k = (u64::from(a) << 32) | u64::from(b);
+            let lo = edges.partition_point(|e| e.0 < k);
+            edges[lo..]
+                .iter()
+                .take_while(move |e| e.0 == k)
+                .map(|e| e.1 as usize)
+        };
         let mut merged = vec![false; kept.len()];
         let mut parallelograms = Vec::new();
         for t in 0..kept.len() {
@@ -183,14 +202,19 @@ impl TriangleMesh {
                 continue;
             }
             let tri = kept[t];
-            'edges: for e in 0..3 {
+            // Longest edge first: a parallelogram split into two triangles shares its
+            // diagonal, which for rectangles and most quads is each triangle's longest
+            // edge; trying it first avoids pairing across quad sides.
+            let len = |e: usize| {
+                (positions[tri[(e + 1) % 3] as usize] - positions[tri[e] as usize]).length_squared()
+            };
+            let mut order = [0usize, 1, 2];
+            order.sort_by(|&x, &y| len(y).total_cmp(&len(x)));
+            'edges: for e in order {
                 // Edge (p, q) of t, opposite vertex r.
                 let (pi, qi, ri) = (tri[e], tri[(e + 1) % 3], tri[(e + 2) % 3]);
                 let key = (ids[qi as usize], ids[pi as usize]);
-                let Some(cands) = edge_owner.get(&key) else {
-                    continue;
-                };
-                for &u in cands {
+                for u in owners(key.0, key.1) {
                     if u == t || merged[u] {
                         continue;
                     }

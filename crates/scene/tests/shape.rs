@@ -360,3 +360,48 @@ fn low_degree_bezier_elevates_exactly() {
         assert!((b.eval(u, v).0 - cubic.eval(u, v).0).length() < 1e-14);
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    /// A grid of parallelograms (an affine image of a rectangular grid), each split
+    /// along either diagonal, merges back completely: one parallelogram per cell.
+    #[test]
+    fn split_grid_merges_completely(
+        nx in 1..12usize, nz in 1..12usize, u in v3(), v in v3(), flips in proptest::collection::vec(any::<bool>(), 144)
+    ) {
+        prop_assume!(!is_degenerate(u, v));
+        // Cells much longer in one direction than the other stress the longest-edge rule.
+        let (u, v) = (u, v * 0.3);
+        let mut pos = Vec::new();
+        for k in 0..=nz {
+            for i in 0..=nx {
+                pos.push(u * i as f64 + v * k as f64);
+            }
+        }
+        let w = (nx + 1) as u32;
+        let mut tris = Vec::new();
+        for k in 0..nz as u32 {
+            for i in 0..nx as u32 {
+                let a = k * w + i;
+                let (b, c, d) = (a + 1, a + 1 + w, a + w);
+                if flips[(k as usize * nx + i as usize) % 144] {
+                    tris.extend([[a, b, c], [a, c, d]]);
+                } else {
+                    tris.extend([[a, b, d], [b, c, d]]);
+                }
+            }
+        }
+        let m = TriangleMesh::build(pos, vec![], &tris, "t", "m").unwrap().mesh;
+        let area: f64 = m.elements().map(|e| e.area()).sum();
+        let want = (nx * nz) as f64 * u.cross(v).length();
+        prop_assert!((area - want).abs() <= 1e-9 * want.max(1.0));
+        prop_assert!(m.parallelograms.len() * 2 + m.triangles.len() == 2 * nx * nz);
+        // Longest-edge-first pairs every cell whose split diagonal is the longer one.
+        let long_diag = (u + v).length() > (u - v).length();
+        let all_long = (0..nx * nz).all(|c| flips[c % 144] == long_diag);
+        if all_long {
+            prop_assert_eq!(m.parallelograms.len(), nx * nz);
+        }
+    }
+}
