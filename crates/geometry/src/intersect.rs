@@ -9,8 +9,11 @@
 //!   cylinder, cone, torus) gives a polynomial in `t` whose roots in the clipped ray
 //!   interval are found robustly ([`crate::poly`]; a quartic for the torus); every root
 //!   is mapped to `(u, v)` by the surface's inverse and kept if the trim region
-//!   (slab decomposition, VirtualMesh §4.2) contains it. Surfaces of other shapes fall
-//!   back to Newton iteration seeded on a parameter grid.
+//!   (slab decomposition, VirtualMesh §4.2) contains it. `wavelux-param` Bézier
+//!   patches use the Bézier search below on their control net; surfaces of revolution,
+//!   generalized cylinders and tangent developables (and any future shape) use adaptive
+//!   subdivision of their natural parametrization with Newton at the leaves
+//!   ([`parametric_closest`]); the hit is mapped back by the surface's inverse.
 //! - Bézier patches: de Casteljau subdivision with control-hull box culling (the
 //!   interval part), then Newton on `S(u, v) = o + t d` from each surviving cell.
 
@@ -297,38 +300,67 @@ pub fn implicit_of(s: &dyn Parametrization) -> Option<(LocalFrame, Implicit)> {
 const PATCH_UV_TOL: f64 = 1e-10;
 
 impl TrimmedPatch {
-    /// Closest intersection with `t ∈ [tmin, tmax]` that the trim keeps.
+    /// Closest intersection with `t ∈ [tmin, tmax]` that the trim keeps. Quadrics,
+    /// torus and planes: implicit roots; Bézier patches: [`bezier_closest`] on the
+    /// control net; other shapes (revolution, generalized cylinder, tangent
+    /// developable, future ones): [`parametric_closest`] on the surface's natural map
+    /// (cheap to evaluate), the hit mapped back by the surface's inverse.
     pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         let bb = self.aabb();
-        let pad = 1e-9 * bb.diagonal().length();
+        let size = bb.diagonal().length();
+        let pad = 1e-9 * size;
         let (t0, t1) = bb.expanded(pad).intersect_ray(ray, tmin, tmax)?;
-        let Some((frame, imp)) = implicit_of(self.surface.as_ref()) else {
-            return self.intersect_newton(ray, t0, t1);
-        };
-        let o = frame.to_local(ray.origin);
-        let d = frame.vec_to_local(ray.dir);
-        for t in implicit_roots(imp, o, d, t0, t1) {
-            if t < tmin || t > tmax {
-                continue;
+        let surf = self.surface.as_ref();
+        if let Some((frame, imp)) = implicit_of(surf) {
+            let o = frame.to_local(ray.origin);
+            let d = frame.vec_to_local(ray.dir);
+            for t in implicit_roots(imp, o, d, t0, t1) {
+                if t < tmin || t > tmax {
+                    continue;
+                }
+                let Some(uv) = surf.inverse(ray.at(t)) else {
+                    continue;
+                };
+                if self.keeps(uv, PATCH_UV_TOL) {
+                    let uv = uv.clamp(DVec2::ZERO, DVec2::ONE);
+                    return Some(make_hit(ray, t, uv, surf.normal(uv)));
+                }
             }
-            let p = ray.at(t);
-            let Some(uv) = self.surface.inverse(p) else {
-                continue;
-            };
-            if self.keeps(uv, PATCH_UV_TOL) {
-                let uv = uv.clamp(DVec2::ZERO, DVec2::ONE);
-                return Some(make_hit(ray, t, uv, self.surface.normal(uv)));
-            }
+            return None;
         }
-        None
+        let mut found: Option<DVec2> = None;
+        let mut accept = |_: DVec2, x: DVec3| match surf.inverse(x) {
+            Some(uv) if self.keeps(uv, PATCH_UV_TOL) => {
+                found = Some(uv.clamp(DVec2::ZERO, DVec2::ONE));
+                true
+            }
+            _ => false,
+        };
+        let (t, _) = match surf.shape() {
+            SurfaceShape::BezierPatch(b) => {
+                bezier_closest(b.control_points(), ray, t0, t1, &mut accept)?
+            }
+            _ => {
+                let search = natural_of(surf);
+                let s: &dyn Parametrization = search.as_deref().unwrap_or(surf);
+                let eval = |q: DVec2| {
+                    let sp = s.eval(q);
+                    (sp.position, sp.dp_du, sp.dp_dv)
+                };
+                parametric_closest(eval, size, ray, t0, t1, &mut accept)?
+            }
+        };
+        // `found` holds the uv of the last accepted root, which is the returned one
+        // (each accepted root lowers the search's upper bound).
+        let uv = found?;
+        Some(make_hit(ray, t, uv, surf.normal(uv)))
     }
 
-    /// Fallback for surfaces without an implicit form (public so it can be tested on
-    /// surfaces that have one): Newton on `S(u,v) − (o + t d)` seeded at the centre of
-    /// every cell of a 24×24 parameter grid whose (doubled) box the ray crosses, with `t`
-    /// seeded by projecting the cell centre on the ray; a converged root is accepted only
-    /// within 1.5 cells of its seed, so each root is found from a nearby cell. Roots at
-    /// grazing incidence or closer than a cell to the patch boundary may be missed.
+    /// The seeded-Newton search on a 24×24 parameter grid (kept as an independent
+    /// cross-check of the other paths in tests): Newton on `S(u,v) − (o + t d)` from the
+    /// centre of every cell whose doubled box the ray crosses, `t` seeded by projecting
+    /// the centre on the ray; a root is accepted only within 1.5 cells of its seed.
+    /// Roots at grazing incidence or closer than a cell to the patch boundary may be missed.
     pub fn intersect_newton(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         let p = &self.surface;
         let n = 24;
@@ -371,6 +403,17 @@ impl TrimmedPatch {
     }
 }
 
+/// The same surface with its natural (cheap) parametrization, for shapes whose
+/// equal-area map is numerical.
+fn natural_of(s: &dyn Parametrization) -> Option<std::sync::Arc<dyn Parametrization>> {
+    match s.shape() {
+        SurfaceShape::Revolution(r) => Some(std::sync::Arc::new(r.natural())),
+        SurfaceShape::GeneralizedCylinder(g) => Some(std::sync::Arc::new(g.natural())),
+        SurfaceShape::TangentDevelopable(t) => Some(std::sync::Arc::new(t.natural())),
+        _ => None,
+    }
+}
+
 /// Newton iteration for `S(u,v) = o + t d` from a seed; returns `(t, uv)` on convergence
 /// (residual below 1e-12 of the point's magnitude scale) with `uv ∈ [0,1]²` (to 1e-9).
 fn newton_surface<F: Fn(DVec2) -> (DVec3, DVec3, DVec3)>(
@@ -407,60 +450,166 @@ fn newton_surface<F: Fn(DVec2) -> (DVec3, DVec3, DVec3)>(
     None
 }
 
-impl BezierPatch {
-    /// Closest intersection with `t ∈ [tmin, tmax]`: subdivision with control-hull box
-    /// culling down to cells of 1/64 of the patch size (or depth 20), then Newton.
-    pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
-        let size = self.aabb().diagonal().length();
-        let pad = 1e-9 * size;
-        let mut best: Option<(f64, DVec2)> = None;
-        let mut stack: Vec<([[DVec3; 4]; 4], DVec2, DVec2, u32)> =
-            vec![(self.p, DVec2::ZERO, DVec2::ONE, 0)];
-        while let Some((net, lo, hi, depth)) = stack.pop() {
-            let cur_max = best.map_or(tmax, |b| b.0);
-            let b = Aabb::from_points(net.iter().flatten().copied()).expanded(pad);
-            let Some((ta, tb)) = b.intersect_ray(ray, tmin, cur_max) else {
-                continue;
-            };
-            let diag = b.diagonal().length();
-            if diag <= size / 64.0 || depth >= 20 {
-                let seed = 0.5 * (lo + hi);
-                if let Some((t, uv)) = newton_surface(
-                    |q| bezier::eval(&self.p, q),
-                    ray,
-                    seed,
-                    0.5 * (ta + tb),
-                    tmin,
-                    cur_max,
-                ) {
-                    if best.is_none_or(|bb| t < bb.0) {
-                        best = Some((t, uv));
-                    }
-                    continue;
-                }
-                if depth >= 20 {
-                    continue;
-                }
-                if diag <= size / 4096.0 {
-                    // Newton failed on a tiny cell: no transversal root here.
-                    continue;
-                }
-            }
-            let (mid_u, mid_v) = (0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y));
-            let (a, bnet) = bezier::split_u(&net);
-            for (half, l, h) in [
-                (a, lo, DVec2::new(mid_u, hi.y)),
-                (bnet, DVec2::new(mid_u, lo.y), hi),
-            ] {
-                let (c0, c1) = bezier::split_v(&half);
-                stack.push((c0, l, DVec2::new(h.x, mid_v), depth + 1));
-                stack.push((c1, DVec2::new(l.x, mid_v), h, depth + 1));
+/// Outcome of Newton at a leaf cell of a subdivision search.
+enum Leaf {
+    /// A root inside the cell that the caller accepted: `(t, uv)`.
+    Accepted(f64, DVec2),
+    /// A root inside the cell that the caller rejected (e.g. trimmed away).
+    Rejected,
+    /// No root found inside the cell.
+    Missed,
+}
+
+fn leaf_newton<F: Fn(DVec2) -> (DVec3, DVec3, DVec3)>(
+    eval: F,
+    ray: &Ray,
+    lo: DVec2,
+    hi: DVec2,
+    t_seed: f64,
+    tmin: f64,
+    tmax: f64,
+    accept: &mut dyn FnMut(DVec2, DVec3) -> bool,
+) -> Leaf {
+    let c = 0.5 * (lo + hi);
+    match newton_surface(eval, ray, c, t_seed, tmin, tmax) {
+        Some((t, uv)) => {
+            let m = 1e-9 + 1e-6 * (hi - lo).max_element();
+            if uv.x < lo.x - m || uv.x > hi.x + m || uv.y < lo.y - m || uv.y > hi.y + m {
+                Leaf::Missed
+            } else if accept(uv, ray.at(t)) {
+                Leaf::Accepted(t, uv)
+            } else {
+                Leaf::Rejected
             }
         }
-        let (t, uv) = best?;
-        let (_, su, sv) = bezier::eval(&self.p, uv);
-        let n = su.cross(sv).try_normalize().unwrap_or(DVec3::Z);
-        Some(make_hit(ray, t, uv, n))
+        None => Leaf::Missed,
+    }
+}
+
+/// Closest root of a bicubic Bézier patch along the ray that `accept(st, point)` keeps:
+/// de Casteljau subdivision with control-hull boxes (conservative: the convex-hull
+/// property), Newton at cells below 1/64 of the patch size, deeper subdivision
+/// (to 1/4096, depth ≤ 20) where Newton leaves the cell or fails.
+pub fn bezier_closest(
+    p: &[[DVec3; 4]; 4],
+    ray: &Ray,
+    tmin: f64,
+    tmax: f64,
+    accept: &mut dyn FnMut(DVec2, DVec3) -> bool,
+) -> Option<(f64, DVec2)> {
+    let size = Aabb::from_points(p.iter().flatten().copied())
+        .diagonal()
+        .length();
+    let pad = 1e-9 * size;
+    let mut best: Option<(f64, DVec2)> = None;
+    let mut stack: Vec<([[DVec3; 4]; 4], DVec2, DVec2, u32)> =
+        vec![(*p, DVec2::ZERO, DVec2::ONE, 0)];
+    while let Some((net, lo, hi, depth)) = stack.pop() {
+        let cur_max = best.map_or(tmax, |b| b.0);
+        let b = Aabb::from_points(net.iter().flatten().copied()).expanded(pad);
+        let Some((ta, tb)) = b.intersect_ray(ray, tmin, cur_max) else {
+            continue;
+        };
+        let diag = b.diagonal().length();
+        if diag <= size / 64.0 || depth >= 20 {
+            match leaf_newton(
+                |q| bezier::eval(p, q),
+                ray,
+                lo,
+                hi,
+                0.5 * (ta + tb),
+                tmin,
+                cur_max,
+                accept,
+            ) {
+                Leaf::Accepted(t, uv) => {
+                    best = Some((t, uv));
+                    continue;
+                }
+                Leaf::Rejected => continue,
+                Leaf::Missed if depth >= 20 || diag <= size / 4096.0 => continue,
+                Leaf::Missed => {}
+            }
+        }
+        let (mid_u, mid_v) = (0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y));
+        let (a, bnet) = bezier::split_u(&net);
+        for (half, l, h) in [
+            (a, lo, DVec2::new(mid_u, hi.y)),
+            (bnet, DVec2::new(mid_u, lo.y), hi),
+        ] {
+            let (c0, c1) = bezier::split_v(&half);
+            stack.push((c0, l, DVec2::new(h.x, mid_v), depth + 1));
+            stack.push((c1, DVec2::new(l.x, mid_v), h, depth + 1));
+        }
+    }
+    best
+}
+
+/// Closest root along the ray of a general parametric surface (`eval` gives position
+/// and both tangents over `[0,1]²`) that `accept(uv, point)` keeps: adaptive
+/// subdivision from an 8×8 grid, each cell bounded by the box of 9 samples inflated
+/// by twice the deviation of its centre from the bilinear interpolation of its corners
+/// plus `1e-9` of the surface size (a heuristic bound, tight for smooth surfaces once
+/// cells are small), Newton at cells of 1/128 (deeper to 1/1024 where it fails).
+pub fn parametric_closest<F: Fn(DVec2) -> (DVec3, DVec3, DVec3)>(
+    eval: F,
+    size: f64,
+    ray: &Ray,
+    tmin: f64,
+    tmax: f64,
+    accept: &mut dyn FnMut(DVec2, DVec3) -> bool,
+) -> Option<(f64, DVec2)> {
+    let pad = 1e-9 * size;
+    let mut best: Option<(f64, DVec2)> = None;
+    let n0 = 8;
+    let mut stack: Vec<(DVec2, DVec2, u32)> = Vec::with_capacity(n0 * n0 + 64);
+    for i in 0..n0 {
+        for j in 0..n0 {
+            let lo = DVec2::new(i as f64, j as f64) / n0 as f64;
+            stack.push((lo, lo + DVec2::splat(1.0 / n0 as f64), 3));
+        }
+    }
+    while let Some((lo, hi, depth)) = stack.pop() {
+        let cur_max = best.map_or(tmax, |b| b.0);
+        let mut pts = [DVec3::ZERO; 9];
+        for a in 0..3 {
+            for b in 0..3 {
+                let q = lo + (hi - lo) * DVec2::new(a as f64, b as f64) * 0.5;
+                pts[3 * a + b] = eval(q).0;
+            }
+        }
+        let bilinear = 0.25 * (pts[0] + pts[2] + pts[6] + pts[8]);
+        let dev = (pts[4] - bilinear).length();
+        let bx = Aabb::from_points(pts).expanded(2.0 * dev + pad);
+        let Some((ta, tb)) = bx.intersect_ray(ray, tmin, cur_max) else {
+            continue;
+        };
+        let cell = (hi - lo).max_element();
+        if cell <= 1.0 / 128.0 {
+            match leaf_newton(&eval, ray, lo, hi, 0.5 * (ta + tb), tmin, cur_max, accept) {
+                Leaf::Accepted(t, uv) => {
+                    best = Some((t, uv));
+                    continue;
+                }
+                Leaf::Rejected => continue,
+                Leaf::Missed if cell <= 1.0 / 1024.0 => continue,
+                Leaf::Missed => {}
+            }
+        }
+        let m = 0.5 * (lo + hi);
+        stack.push((lo, m, depth + 1));
+        stack.push((DVec2::new(m.x, lo.y), DVec2::new(hi.x, m.y), depth + 1));
+        stack.push((DVec2::new(lo.x, m.y), DVec2::new(m.x, hi.y), depth + 1));
+        stack.push((m, hi, depth + 1));
+    }
+    best
+}
+
+impl BezierPatch {
+    /// Closest intersection with `t ∈ [tmin, tmax]` ([`bezier_closest`]).
+    pub fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
+        let (t, uv) = bezier_closest(&self.p, ray, tmin, tmax, &mut |_, _| true)?;
+        Some(make_hit(ray, t, uv, self.normal(uv)))
     }
 }
 

@@ -502,3 +502,178 @@ fn primitive_area_and_normal() {
     let q = sph.eval(uv);
     assert!((sph.normal(uv) - (q - DVec3::new(1.0, 2.0, 3.0)) / 0.7).length() <= 1e-12);
 }
+
+/// Numerically mapped surfaces, each with the same surface under its natural map
+/// (cheap to evaluate; used to tessellate).
+type Surf = Arc<dyn param::Parametrization>;
+
+fn numeric_surfaces() -> Vec<(&'static str, Surf, Surf)> {
+    let f = frame(DVec3::new(-0.2, 0.4, 0.1), DVec3::new(0.1, -0.3, 1.0));
+    let vase: Arc<dyn param::Curve> = Arc::new(
+        param::BezierCurve::new(vec![
+            DVec3::new(0.5, 0.0, 0.0),
+            DVec3::new(1.4, 0.0, 0.5),
+            DVec3::new(0.2, 0.0, 1.0),
+            DVec3::new(0.7, 0.0, 1.6),
+        ])
+        .unwrap(),
+    );
+    let base: Arc<dyn param::Curve> = Arc::new(
+        param::BezierCurve::new(vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 1.2, 0.0),
+            DVec3::new(2.0, -0.8, 0.1),
+            DVec3::new(3.0, 0.3, 0.0),
+        ])
+        .unwrap(),
+    );
+    let helix: Arc<dyn param::Curve> = Arc::new(param::Helix::new(1.0, 0.8).unwrap());
+    let mut net = [[DVec3::ZERO; 4]; 4];
+    for i in 0..4 {
+        for j in 0..4 {
+            net[i][j] = DVec3::new(i as f64, j as f64, ((i * 3 + j * 5) % 4) as f64 * 0.4 - 0.6);
+        }
+    }
+    let rev = param::Revolution::new(f, vase.clone(), (0.0, 1.0), (-PI, PI)).unwrap();
+    let rev_n = param::Revolution::new(f, vase, (0.0, 1.0), (0.0, 4.0))
+        .unwrap()
+        .natural();
+    let gc =
+        param::GeneralizedCylinder::new(f, base, DVec3::new(0.2, 0.1, 1.0), (0.0, 1.0), (0.0, 1.5))
+            .unwrap();
+    let td = param::TangentDevelopable::new(f, helix, (0.0, 3.0), (0.1, 1.2)).unwrap();
+    let bz = param::BezierPatch::new(net).unwrap();
+    vec![
+        ("revolution", Arc::new(rev.clone()), Arc::new(rev.natural())),
+        (
+            "revolution natural",
+            Arc::new(rev_n.clone()),
+            Arc::new(rev_n),
+        ),
+        (
+            "generalized cylinder",
+            Arc::new(gc.clone()),
+            Arc::new(gc.natural()),
+        ),
+        (
+            "tangent developable",
+            Arc::new(td.clone()),
+            Arc::new(td.natural()),
+        ),
+        ("bezier patch", Arc::new(bz.clone()), Arc::new(bz.natural())),
+    ]
+}
+
+#[test]
+fn numerically_mapped_surfaces_vs_tessellation_and_seeded_newton() {
+    for (name, surf, natural) in numeric_surfaces() {
+        // Brute force: a 96×96 tessellation of the surface's natural map, through a
+        // BVH; the hit point's uv (inverse) is tested against the trim by brute-force winding.
+        let n = 96;
+        let mut tris = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let q = |a: usize, b: usize| DVec2::new(a as f64 / n as f64, b as f64 / n as f64);
+                let (a, b, c, d) = (q(i, j), q(i + 1, j), q(i + 1, j + 1), q(i, j + 1));
+                for tri in [[a, b, c], [a, c, d]] {
+                    if let Ok(t) = Triangle::new(
+                        natural.position(tri[0]),
+                        natural.position(tri[1]),
+                        natural.position(tri[2]),
+                    ) {
+                        tris.push(t);
+                    }
+                }
+            }
+        }
+        let tess = Accel::from_triangles(&tris).unwrap();
+        for trim in [None, Some(trim_region())] {
+            let patch = TrimmedPatch::new(surf.clone(), trim.clone()).unwrap();
+            let size = patch.aabb().diagonal().length();
+            let keeps = |uv: DVec2| patch.trim.as_ref().is_none_or(|t| t.winding_brute(uv) != 0);
+            let mut mismatch = 0;
+            let mut both = 0;
+            let mut tess_missed = 0;
+            // Rays aimed at points of the surface so that most of them hit.
+            let mut r = rng(21);
+            let rays: Vec<Ray> = (0..150)
+                .map(|_| {
+                    let target = natural.position(DVec2::new(
+                        r.random_range(0.0..1.0),
+                        r.random_range(0.0..1.0),
+                    ));
+                    let o = target + size * rand_vec(&mut r, DVec3::splat(-1.0), DVec3::splat(1.0));
+                    Ray::new(o, target - o).unwrap()
+                })
+                .collect();
+            for (k, ray) in rays.into_iter().enumerate() {
+                let got = patch.intersect(&ray, 0.0, f64::INFINITY);
+                if let Some(h) = got {
+                    assert!(
+                        (surf.position(h.uv) - h.point).length() <= 1e-7 * size,
+                        "{name}: hit off the surface"
+                    );
+                    assert!(patch.keeps(h.uv, 1e-9), "{name}: trimmed hit returned");
+                }
+                // First tessellation hit whose uv (the surface's inverse of the hit point)
+                // the trim keeps by brute-force winding.
+                let mut tmin = 0.0;
+                let mut brute = None;
+                while let Some(h) = tess.closest_hit(&ray, tmin, f64::INFINITY) {
+                    let Some(uv) = surf.inverse(h.point) else {
+                        tmin = h.t + 1e-9 * size;
+                        continue;
+                    };
+                    if keeps(uv) {
+                        brute = Some(h.t);
+                        break;
+                    }
+                    tmin = h.t + 1e-9 * size;
+                }
+                // Our hits are verified on the surface above. The tessellation's chords
+                // can miss grazing hits (ours earlier or alone: counted, allowed) or
+                // report near-misses; a hit of ours later than the tessellation's by
+                // more than its chord error, or none, is a suspected missed root.
+                match (got, brute) {
+                    (Some(h), Some(t)) => {
+                        both += 1;
+                        if h.t > t + 1e-3 * size {
+                            mismatch += 1;
+                        } else if h.t < t - 1e-3 * size {
+                            tess_missed += 1;
+                        }
+                    }
+                    (Some(_), None) => tess_missed += 1,
+                    (None, Some(_)) => mismatch += 1,
+                    (None, None) => {}
+                }
+                // The seeded-Newton search agrees wherever it finds the same root (20
+                // rays; not on the Bézier patch, whose equal-area map costs ~1 ms per
+                // evaluation in the dev profile).
+                if k < 20
+                    && name != "bezier patch"
+                    && let (Some(a), Some(b)) =
+                        (got, patch.intersect_newton(&ray, 0.0, f64::INFINITY))
+                    && (a.t - b.t).abs() <= 1e-3 * size
+                {
+                    assert!(
+                        (a.t - b.t).abs() <= 1e-9 * size,
+                        "{name}: {} vs newton {}",
+                        a.t,
+                        b.t
+                    );
+                }
+            }
+            assert!(both > 40, "{name}: too few hits to compare ({both})");
+            assert!(
+                mismatch <= 3,
+                "{name} trimmed={}: {mismatch} suspected missed roots",
+                trim.is_some()
+            );
+            assert!(
+                tess_missed <= 20,
+                "{name}: {tess_missed} grazing hits beyond the tessellation"
+            );
+        }
+    }
+}
