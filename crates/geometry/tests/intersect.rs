@@ -503,10 +503,10 @@ fn primitive_area_and_normal() {
     assert!((sph.normal(uv) - (q - DVec3::new(1.0, 2.0, 3.0)) / 0.7).length() <= 1e-12);
 }
 
-/// Numerically mapped surfaces, each with the same surface under its natural map
-/// (cheap to evaluate; used to tessellate).
 type Surf = Arc<dyn param::Parametrization>;
 
+/// Numerically mapped surfaces, each with the same surface under its natural map
+/// (cheap to evaluate; used to tessellate).
 fn numeric_surfaces() -> Vec<(&'static str, Surf, Surf)> {
     let f = frame(DVec3::new(-0.2, 0.4, 0.1), DVec3::new(0.1, -0.3, 1.0));
     let vase: Arc<dyn param::Curve> = Arc::new(
