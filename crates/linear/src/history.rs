@@ -8,10 +8,12 @@
 use std::fmt;
 use std::time::Duration;
 
+use serde::{Deserialize, Serialize};
+
 use crate::relaxation::OverrelaxationKind;
 
 /// The iterative method that produced a result.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[non_exhaustive]
 pub enum Method {
     /// Picard iteration `x ← b + K x` (Neumann series, Ziegler §2.3.2 eq. (2.16)).
@@ -59,7 +61,7 @@ impl fmt::Display for Method {
 /// Cumulative work spent by a solver, so that methods can be compared honestly
 /// (Ziegler §4.2.3 compares iterations; one GMRES or Picard iteration costs one
 /// operator application, one CGNR or BiCGSTAB iteration costs two).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct Work {
     /// Applications `y = A x` (or `y = K x`) of the full operator.
     pub applications: u64,
@@ -85,7 +87,7 @@ impl Work {
 }
 
 /// The state after one iteration of a solver.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct IterationRecord {
     /// Iteration index; 0 is the initial guess. For relaxation methods one iteration
     /// is [`SolverOptions::updates_per_record`] single-variable updates (default `n`,
@@ -107,7 +109,7 @@ pub struct IterationRecord {
 }
 
 /// Why a solver stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[non_exhaustive]
 pub enum StopReason {
     /// The relative residual reached the tolerance.
@@ -123,7 +125,7 @@ pub enum StopReason {
 }
 
 /// The convergence history of one solve.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Convergence {
     /// One record per iteration, starting with the initial guess.
     pub iterations: Vec<IterationRecord>,
@@ -153,10 +155,23 @@ impl Convergence {
     pub fn work(&self) -> Work {
         self.last().work
     }
+
+    /// The relative residual of every record, for plotting convergence curves.
+    pub fn relative_residuals(&self) -> Vec<f64> {
+        self.iterations
+            .iter()
+            .map(|r| r.relative_residual)
+            .collect()
+    }
+
+    /// The error of every record (`None` without a reference), for plotting.
+    pub fn errors(&self) -> Vec<Option<f64>> {
+        self.iterations.iter().map(|r| r.error).collect()
+    }
 }
 
 /// Result of a solve.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Solve {
     /// The method that produced it.
     pub method: Method,

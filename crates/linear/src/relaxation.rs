@@ -103,7 +103,7 @@ use crate::util::{Recorder, check_inputs, fixed_point_residual_norm, norm};
 
 /// The overrelaxation choices of Ziegler Table 2.1 (besides PR itself, see
 /// [`progressive_refinement`]). Formulas in the [module documentation](self).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[non_exhaustive]
 pub enum OverrelaxationKind {
     /// Shao & Badler 1993: `M̄ = I + F`.

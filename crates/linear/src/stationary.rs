@@ -19,6 +19,10 @@ use crate::util::{Recorder, check_inputs, fixed_point_residual_norm, norm, resid
 /// guess is given, since then `x⁽⁰⁾ = 0` and `r⁽⁰⁾ = b`, so that `x⁽ᵏ⁾ = Σ_{i<k} Kⁱ b`).
 /// Converges for any `b` iff the spectral radius of `K` is below 1; the residual
 /// contracts by about that radius per iteration (slow as reflectance → 1).
+///
+/// Ziegler §4.2.2 starts from `x⁽⁰⁾ = b`; pass `b` as the initial guess to
+/// reproduce his curves (record `k` then equals his iteration `k`, and record 0
+/// costs one application). With the default `x⁽⁰⁾ = 0`, record `k + 1` is his `k`.
 pub fn picard<K: Operator + ?Sized>(
     k: &K,
     b: &[f64],

@@ -294,3 +294,33 @@ fn zero_right_hand_side_converges_immediately() {
     }
     let _ = a.dim();
 }
+
+#[test]
+fn convergence_records_round_trip_through_json() {
+    let sys = Radiosity::seeded(8, 12, 0.3, 0.9);
+    let k = sys.k_op();
+    let s = gmres(
+        &IdentityMinus::new(&k),
+        &sys.b,
+        &SolverOptions::default().with_reference(sys.direct()),
+    )
+    .unwrap();
+    let json = serde_json::to_string(&s).unwrap();
+    let back: wavelux_linear::Solve = serde_json::from_str(&json).unwrap();
+    // serde_json's default float parser may differ in the last ulp; compare the
+    // structure exactly and the numbers to rounding.
+    assert_eq!(back.method, s.method);
+    assert_eq!(back.history.iterations.len(), s.history.iterations.len());
+    assert_eq!(back.history.reason, s.history.reason);
+    assert!(rel_err(&back.x, &s.x) < 1e-15);
+    for (a, b) in back.history.iterations.iter().zip(&s.history.iterations) {
+        assert_eq!(a.work, b.work);
+        assert_eq!(a.elapsed, b.elapsed);
+        assert!((a.residual_norm - b.residual_norm).abs() <= 1e-15 * b.residual_norm);
+    }
+    assert_eq!(
+        s.history.relative_residuals().len(),
+        s.history.iterations.len()
+    );
+    assert!(s.history.errors().iter().all(Option::is_some));
+}
