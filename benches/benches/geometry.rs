@@ -14,8 +14,10 @@ use obvhs::triangle::Triangle as FTri;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
-use wavelux_geometry::{Accel, OcclusionQuery, Primitive, Triangle};
+use wavelux::param as wparam;
+use wavelux_geometry::{Accel, OcclusionQuery, Primitive, Triangle, TrimmedPatch};
 
 /// Icosphere triangles (outward), `level` subdivisions of the icosahedron.
 fn icosphere(center: DVec3, r: f64, level: u32) -> Vec<[DVec3; 3]> {
@@ -303,7 +305,87 @@ fn bench_scene(c: &mut Criterion, name: &str, tris: Vec<[DVec3; 3]>, n_rays: usi
     g.finish();
 }
 
+/// The room of `room_100k` with exact primitives: 6 wall parallelograms, 63 spheres
+/// and 20 tori as `wavelux-param` trimmed patches (no trims); shadow rays between
+/// points sampled on random primitives, `ignore` = their primitives.
+fn bench_exact(c: &mut Criterion, n_rays: usize) {
+    let mut r = Pcg64::seed_from_u64(3);
+    let size = DVec3::new(10.0, 8.0, 3.0);
+    let mut prims: Vec<Primitive> = Vec::new();
+    for w in room(size, 1).chunks(2) {
+        let [a, b, _] = w[0];
+        let d = w[1][2];
+        let p = wavelux_geometry::Parallelogram::new(a, b - a, d - a).expect("wall");
+        prims.push(p.into());
+    }
+    for k in 0..83 {
+        let ctr = DVec3::new(
+            r.random_range(0.8..9.2),
+            r.random_range(0.8..7.2),
+            r.random_range(0.5..2.5),
+        );
+        let axis = DVec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), 1.0);
+        let f = wparam::Frame::from_axis(ctr, axis).expect("frame");
+        let s: Arc<dyn wparam::Parametrization> = if k < 63 {
+            Arc::new(wparam::Sphere::full(f, r.random_range(0.1..0.45)).expect("sphere"))
+        } else {
+            let big = r.random_range(0.2..0.4);
+            Arc::new(
+                wparam::Torus::new(
+                    f,
+                    big,
+                    0.3 * big,
+                    (-std::f64::consts::PI, std::f64::consts::PI),
+                    (-std::f64::consts::PI, std::f64::consts::PI),
+                )
+                .expect("torus"),
+            )
+        };
+        prims.push(TrimmedPatch::new(s, None).expect("patch").into());
+    }
+    let acc = Accel::build(prims).expect("valid scene");
+    let n = acc.len();
+    let qs: Vec<OcclusionQuery> = (0..n_rays)
+        .map(|_| {
+            let i = r.random_range(0..n);
+            let j = r.random_range(0..n);
+            let uv = |r: &mut Pcg64| {
+                glam::DVec2::new(r.random_range(0.0..1.0), r.random_range(0.0..1.0))
+            };
+            let p = acc.primitives()[i].eval(uv(&mut r));
+            let q = acc.primitives()[j].eval(uv(&mut r));
+            OcclusionQuery {
+                p,
+                q,
+                ignore: [Some(i as u32), Some(j as u32)],
+            }
+        })
+        .collect();
+    let mut out = vec![false; qs.len()];
+    let mut g = c.benchmark_group("occlusion_room_exact");
+    g.throughput(Throughput::Elements(qs.len() as u64));
+    g.sample_size(10);
+    g.measurement_time(Duration::from_secs(4));
+    g.warm_up_time(Duration::from_secs(1));
+    for threads in [1usize, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("thread pool");
+        g.bench_with_input(BenchmarkId::new("wrapper", threads), &threads, |b, _| {
+            b.iter(|| pool.install(|| acc.occluded_queries(&qs, &mut out).expect("lengths match")))
+        });
+    }
+    g.finish();
+    eprintln!(
+        "room_exact: {n} primitives, {} of {} rays occluded",
+        out.iter().filter(|&&b| b).count(),
+        qs.len()
+    );
+}
+
 fn occlusion(c: &mut Criterion) {
+    bench_exact(c, 20_000);
     let mut r = Pcg64::seed_from_u64(1);
     let room = scene_room(&mut r);
     bench_scene(c, "room_100k", room, 20_000);
