@@ -3,6 +3,11 @@
 //! (f32 Möller–Trumbore in the traversal callback) on the same BVH preset and the same
 //! rays, with 1 and 2 rayon threads, in a ~100k-triangle room and a ~1M-triangle scene.
 //! The ratio `wrapper / obvhs` of the times is the wrapper's overhead.
+//! `obvhs_direct` looks triangles up through `primitive_indices` (obvhs's basic
+//! example); `obvhs_leaf_ordered` reorders them into leaf order first (its
+//! cornell_box example), the layout the wrapper uses. `occlusion_room_exact` times the
+//! wrapper alone on exact primitives (parallelograms, spheres and tori as trimmed
+//! patches).
 #![allow(missing_docs)] // reason: criterion's macros generate undocumented items
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
