@@ -113,6 +113,39 @@ fn occlusion_and_closest_hit_equal_brute_force() {
 }
 
 #[test]
+fn occlusion_with_ignore_ids_equals_brute_force() {
+    // End points on random primitives (the radiosity use case), their ids ignored.
+    let acc = Accel::build(random_scene(5, 300)).unwrap();
+    let n = acc.len();
+    let mut r = Pcg64::seed_from_u64(55);
+    let mut queries = Vec::new();
+    for _ in 0..1500 {
+        let i = r.random_range(0..n);
+        let j = r.random_range(0..n);
+        let uv = |r: &mut Pcg64| DVec2::new(r.random_range(0.0..1.0), r.random_range(0.0..1.0));
+        let p = acc.primitives()[i].eval(uv(&mut r));
+        let q = acc.primitives()[j].eval(uv(&mut r));
+        queries.push(OcclusionQuery {
+            p,
+            q,
+            ignore: [Some(i as u32), Some(j as u32)],
+        });
+    }
+    let mut out = vec![false; queries.len()];
+    acc.occluded_queries(&queries, &mut out).unwrap();
+    let mut n_occ = 0;
+    for (k, qu) in queries.iter().enumerate() {
+        assert_eq!(
+            out[k],
+            acc.occluded_brute(qu.p, qu.q, qu.ignore),
+            "query {k}"
+        );
+        n_occ += usize::from(out[k]);
+    }
+    assert!(n_occ > 50 && n_occ < 1450, "{n_occ}");
+}
+
+#[test]
 fn batch_length_mismatch_is_an_error() {
     let acc = Accel::build(random_scene(9, 10)).unwrap();
     let mut out = vec![false; 1];
