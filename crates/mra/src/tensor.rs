@@ -49,6 +49,14 @@ fn check_shape<M: Mra + ?Sized>(
     Ok(n)
 }
 
+/// Two disjoint scratch lines of length `n` from a reusable buffer.
+fn split_scratch(buf: &mut Vec<f64>, n: usize) -> (&mut [f64], &mut [f64]) {
+    if buf.len() < 2 * n {
+        buf.resize(2 * n, 0.0);
+    }
+    buf[..2 * n].split_at_mut(n)
+}
+
 /// Calls `f(base)` for every line along `axis` inside the sub-cube `[0, m)^dim` of an
 /// array with side `n`; `base` is the flat offset of the line's first entry.
 pub(crate) fn for_each_line(
@@ -99,25 +107,27 @@ pub fn nonstandard_decompose<M: Mra + ?Sized>(
     j0: u32,
     data: &mut [f64],
 ) -> Result<(), MraError> {
+    nonstandard_decompose_with(mra, dim, level, j0, data, &mut Vec::new())
+}
+
+/// [`nonstandard_decompose`] with a caller-owned scratch buffer (grown to `2 len(level)`
+/// on first use, then reused: no allocation in repeated calls).
+///
+/// # Errors
+/// Dimension, level and length errors.
+pub fn nonstandard_decompose_with<M: Mra + ?Sized>(
+    mra: &M,
+    dim: usize,
+    level: u32,
+    j0: u32,
+    data: &mut [f64],
+    scratch: &mut Vec<f64>,
+) -> Result<(), MraError> {
     let n = check_shape(mra, dim, level, j0, data.len())?;
-    let mut line = vec![0.0; n];
-    let mut out = vec![0.0; n];
     for j in (j0..level).rev() {
         let m2 = mra.len(j + 1);
-        let m = mra.len(j);
         for axis in 0..dim {
-            let stride = n.pow((dim - 1 - axis) as u32);
-            for_each_line(dim, n, m2, axis, |base| {
-                for i in 0..m2 {
-                    line[i] = data[base + i * stride];
-                }
-                let (c, d) = out[..m2].split_at_mut(m);
-                mra.analysis_step(j, &line[..m2], c, d)?;
-                for i in 0..m2 {
-                    data[base + i * stride] = out[i];
-                }
-                Ok(())
-            })?;
+            step_axis(mra, dim, n, m2, axis, j, data, scratch, true)?;
         }
     }
     Ok(())
@@ -134,28 +144,124 @@ pub fn nonstandard_reconstruct<M: Mra + ?Sized>(
     j0: u32,
     data: &mut [f64],
 ) -> Result<(), MraError> {
+    nonstandard_reconstruct_with(mra, dim, level, j0, data, &mut Vec::new())
+}
+
+/// [`nonstandard_reconstruct`] with a caller-owned scratch buffer.
+///
+/// # Errors
+/// Dimension, level and length errors.
+pub fn nonstandard_reconstruct_with<M: Mra + ?Sized>(
+    mra: &M,
+    dim: usize,
+    level: u32,
+    j0: u32,
+    data: &mut [f64],
+    scratch: &mut Vec<f64>,
+) -> Result<(), MraError> {
     let n = check_shape(mra, dim, level, j0, data.len())?;
-    let mut line = vec![0.0; n];
-    let mut out = vec![0.0; n];
     for j in j0..level {
         let m2 = mra.len(j + 1);
-        let m = mra.len(j);
         for axis in (0..dim).rev() {
-            let stride = n.pow((dim - 1 - axis) as u32);
-            for_each_line(dim, n, m2, axis, |base| {
-                for i in 0..m2 {
-                    line[i] = data[base + i * stride];
-                }
-                let (c, d) = line[..m2].split_at(m);
-                mra.synthesis_step(j, c, d, &mut out[..m2])?;
-                for i in 0..m2 {
-                    data[base + i * stride] = out[i];
-                }
-                Ok(())
-            })?;
+            step_axis(mra, dim, n, m2, axis, j, data, scratch, false)?;
         }
     }
     Ok(())
+}
+
+/// One analysis (`forward`) or synthesis step along `axis` of the sub-cube `[0, m2)^dim`
+/// of an array with side `n`. The last axis is contiguous and transformed line by line;
+/// for the other axes the lines are processed together as the rows of an `m2 × m2` block
+/// (the last axis as the vector index), so every filter tap is a contiguous axpy and
+/// strided single-element gathers are avoided.
+fn step_axis<M: Mra + ?Sized>(
+    mra: &M,
+    dim: usize,
+    n: usize,
+    m2: usize,
+    axis: usize,
+    j: u32,
+    data: &mut [f64],
+    scratch: &mut Vec<f64>,
+    forward: bool,
+) -> Result<(), MraError> {
+    let m = m2 / 2;
+    if axis + 1 == dim {
+        let (line, out) = split_scratch(scratch, n);
+        return for_each_line(dim, n, m2, axis, |base| {
+            let l = &mut data[base..base + m2];
+            line[..m2].copy_from_slice(l);
+            if forward {
+                let (c, d) = out[..m2].split_at_mut(m);
+                mra.analysis_step(j, &line[..m2], c, d)?;
+            } else {
+                let (c, d) = line[..m2].split_at(m);
+                mra.synthesis_step(j, c, d, &mut out[..m2])?;
+            }
+            l.copy_from_slice(&out[..m2]);
+            Ok(())
+        });
+    }
+    let block = m2 * m2;
+    if scratch.len() < 2 * block {
+        scratch.resize(2 * block, 0.0);
+    }
+    let (inp, out) = scratch[..2 * block].split_at_mut(block);
+    let stride = n.pow((dim - 1 - axis) as u32);
+    // Iterate over the lines of the last axis with index 0 along `axis`.
+    let last_axis = dim - 1;
+    for_each_line(dim, n, m2, last_axis, |base| {
+        // `base` enumerates all combinations of the axes < dim-1; keep those with
+        // index 0 along `axis`.
+        if !(base / stride).is_multiple_of(n) {
+            return Ok(());
+        }
+        for l in 0..m2 {
+            let src = base + l * stride;
+            inp[l * m2..(l + 1) * m2].copy_from_slice(&data[src..src + m2]);
+        }
+        out.fill(0.0);
+        for k in 0..m {
+            let h = mra.scaling_row(j, k)?;
+            let g = mra.wavelet_row(j, k)?;
+            if forward {
+                let (oc, od) = out.split_at_mut(m * m2);
+                let c = &mut oc[k * m2..(k + 1) * m2];
+                for (t, &w) in h.coeffs.iter().enumerate() {
+                    axpy(w, &inp[(h.start + t) * m2..(h.start + t + 1) * m2], c);
+                }
+                let d = &mut od[k * m2..(k + 1) * m2];
+                for (t, &w) in g.coeffs.iter().enumerate() {
+                    axpy(w, &inp[(g.start + t) * m2..(g.start + t + 1) * m2], d);
+                }
+            } else {
+                let (c, d) = (k * m2, (m + k) * m2);
+                for (t, &w) in h.coeffs.iter().enumerate() {
+                    let l = h.start + t;
+                    let (src, dst) = (&inp[c..c + m2], &mut out[l * m2..(l + 1) * m2]);
+                    axpy(w, src, dst);
+                }
+                for (t, &w) in g.coeffs.iter().enumerate() {
+                    let l = g.start + t;
+                    let (src, dst) = (&inp[d..d + m2], &mut out[l * m2..(l + 1) * m2]);
+                    axpy(w, src, dst);
+                }
+            }
+        }
+        for l in 0..m2 {
+            let dst = base + l * stride;
+            data[dst..dst + m2].copy_from_slice(&out[l * m2..(l + 1) * m2]);
+        }
+        Ok(())
+    })
+}
+
+/// `y += a x`.
+#[inline]
+fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
+    for (yi, xi) in y.iter_mut().zip(x) {
+        *yi += a * xi;
+    }
 }
 
 /// Standard decomposition in place: the full 1D pyramid (Mallat layout, see
@@ -170,7 +276,7 @@ pub fn standard_decompose<M: Mra + ?Sized>(
     j0: u32,
     data: &mut [f64],
 ) -> Result<(), MraError> {
-    standard(mra, dim, level, j0, data, true)
+    standard_with(mra, dim, level, j0, data, true, &mut Vec::new())
 }
 
 /// Inverse of [`standard_decompose`], in place.
@@ -184,20 +290,25 @@ pub fn standard_reconstruct<M: Mra + ?Sized>(
     j0: u32,
     data: &mut [f64],
 ) -> Result<(), MraError> {
-    standard(mra, dim, level, j0, data, false)
+    standard_with(mra, dim, level, j0, data, false, &mut Vec::new())
 }
 
-fn standard<M: Mra + ?Sized>(
+/// [`standard_decompose`] (`forward = true`) or [`standard_reconstruct`] with a
+/// caller-owned scratch buffer.
+///
+/// # Errors
+/// Dimension, level and length errors.
+pub fn standard_with<M: Mra + ?Sized>(
     mra: &M,
     dim: usize,
     level: u32,
     j0: u32,
     data: &mut [f64],
     forward: bool,
+    buf: &mut Vec<f64>,
 ) -> Result<(), MraError> {
     let n = check_shape(mra, dim, level, j0, data.len())?;
-    let mut line = vec![0.0; n];
-    let mut scratch = vec![0.0; n];
+    let (line, scratch) = split_scratch(buf, n);
     for axis in 0..dim {
         let stride = n.pow((dim - 1 - axis) as u32);
         for_each_line(dim, n, n, axis, |base| {
@@ -205,9 +316,9 @@ fn standard<M: Mra + ?Sized>(
                 line[i] = data[base + i * stride];
             }
             if forward {
-                crate::transform::decompose_with(mra, level, j0, &mut line, &mut scratch)?;
+                crate::transform::decompose_with(mra, level, j0, line, scratch)?;
             } else {
-                crate::transform::reconstruct_with(mra, level, j0, &mut line, &mut scratch)?;
+                crate::transform::reconstruct_with(mra, level, j0, line, scratch)?;
             }
             for i in 0..n {
                 data[base + i * stride] = line[i];
