@@ -1,1 +1,72 @@
-//! wavelux-render: see the crate description; being built (this placeholder is replaced by the crate's modules).
+//! wavelux-render: cameras, images, final gather, exports and a Monte Carlo reference
+//! for wavelux radiosity solutions.
+//!
+//! - [`camera`]: pinhole/orthographic views from glTF cameras or an explicit look-at,
+//!   primary rays (glTF 2.0 §3.10 conventions);
+//! - [`field`]: the [`RadiosityField`] trait (anything that gives the exitant radiosity
+//!   at a ray hit) and [`SolutionField`], its implementation for a
+//!   `wavelux_solver::Solution` (the hit's `(patch, s, t)` by inverting the patch's
+//!   equal-area support map);
+//! - [`render`](mod@render): images of a field, optionally with one-bounce final gather
+//!   (Glossy §5.5);
+//! - [`image`]: linear RGB images, EXR (exr crate) and tone-mapped sRGB PNG (png crate)
+//!   I/O, error metrics and false-colour error maps; every file is written through a
+//!   temporary file and an atomic rename;
+//! - [`reference`]: a Monte Carlo path tracer for diffuse scenes (the ground truth for
+//!   scenes without closed forms);
+//! - [`export`]: glTF export with baked per-vertex radiosity and per-surface lightmaps.
+//!
+//! # Units
+//! Radiosity `B` and emission `E` are exitances in W/m² per RGB channel (the
+//! convention of `wavelux-scene`); image pixels hold radiance `L = B/π` in
+//! W/(m²·sr) (Lambertian surfaces), so an EXR of a surface of radiosity `B` reads
+//! `B/π`.
+
+pub mod camera;
+pub mod export;
+pub mod field;
+pub mod image;
+pub mod reference;
+pub mod render;
+mod sampling;
+
+pub use camera::View;
+pub use field::{RadiosityField, SolutionField, SurfacePoint};
+pub use image::{ErrorMetrics, Image, ToneMap, write_atomic};
+pub use reference::{PathTracer, ReferenceOptions, SurfaceEstimate};
+pub use render::{RenderOptions, RenderStats, render};
+
+/// Errors of the renderer, exporters and the reference.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RenderError {
+    /// An argument is out of its documented range.
+    #[error("invalid {what}: {reason}")]
+    Invalid {
+        /// The argument.
+        what: &'static str,
+        /// Why it is invalid.
+        reason: String,
+    },
+    /// The scene cannot be handled (e.g. no geometry, an unsupported primitive).
+    #[error("scene: {0}")]
+    Scene(String),
+    /// Reading or writing a file failed.
+    #[error("{path}: {message}")]
+    Io {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        message: String,
+    },
+    /// Two images cannot be compared (different sizes).
+    #[error("image size mismatch: {0}x{1} vs {2}x{3}")]
+    SizeMismatch(usize, usize, usize, usize),
+}
+
+pub(crate) fn invalid(what: &'static str, reason: impl Into<String>) -> RenderError {
+    RenderError::Invalid {
+        what,
+        reason: reason.into(),
+    }
+}

@@ -1,0 +1,480 @@
+//! A Monte Carlo path tracer for diffuse scenes: the ground truth for scenes without
+//! closed forms.
+//!
+//! For Lambertian surfaces the radiosity equation `B(x) = E(x) + ρ(x)·H(x)` with
+//! irradiance `H(x) = ∫_Ω B(y(ω))/π · cos θ dω` is estimated by a random walk: one
+//! cosine-distributed direction per bounce (pdf `cos θ/π`, so `H(x)` is estimated by
+//! `B(y)` at the hit `y`), `B(y)` estimated recursively, and Russian roulette after
+//! `rr_depth` bounces with survival probability `min(0.95, max_c throughput_c)`
+//! (unbiased: survivors are divided by it). Rays that escape or hit the back of a
+//! one-sided surface (a black occluder) contribute nothing.
+//!
+//! - Per-surface averages: points uniform by area on the surface's front side (the
+//!   quantity `wavelux_solver::Solution::surface_average` reports), one walk each; the
+//!   mean and its standard error `s/√N` per channel.
+//! - Per-point radiosity and images (pixel value `B/π`, radiance of a Lambertian
+//!   surface).
+//!
+//! Determinism: every sample index (point or pixel) draws from its own stream derived
+//! from `(seed, surface or pixel, index)`, and sums are reduced in a fixed order, so
+//! results are bitwise identical for any number of threads.
+//!
+//! Materials: reflectance and emission times their texture means (the same constants
+//! the solver uses); a Ward lobe is ignored (diffuse transport only); directional
+//! (cosine-power) emitters are rejected; participating media are ignored.
+
+use glam::{DVec2, DVec3};
+use rand::RngExt;
+use rand_pcg::Pcg64;
+use rayon::prelude::*;
+use serde::Serialize;
+use wavelux_geometry::{Accel, Hit, Primitive, Ray};
+use wavelux_scene::{EmissionProfile, Scene, Sidedness};
+
+use crate::camera::View;
+use crate::image::Image;
+use crate::render::SECONDARY_EPS_REL;
+use crate::sampling::{cosine_dir, rng_for};
+use crate::{RenderError, invalid};
+
+/// Reflectance and emission of one surface side.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct SideMat {
+    rho: [f64; 3],
+    e: [f64; 3],
+}
+
+/// Options of the random walks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceOptions {
+    /// Bounces before Russian roulette starts.
+    pub rr_depth: usize,
+    /// Hard cap on the path length (a safety net; with roulette the probability of
+    /// reaching it is below `0.95^(cap − rr_depth)`).
+    pub max_depth: usize,
+    /// Seed.
+    pub seed: u64,
+}
+
+impl Default for ReferenceOptions {
+    /// Roulette after 3 bounces, cap 4096, seed 0.
+    fn default() -> Self {
+        Self {
+            rr_depth: 3,
+            max_depth: 4096,
+            seed: 0,
+        }
+    }
+}
+
+/// A Monte Carlo estimate with its standard error (per RGB channel).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SurfaceEstimate {
+    /// Sample mean (W/m²).
+    pub mean: [f64; 3],
+    /// Standard error of the mean, `s/√N` (W/m²).
+    pub std_error: [f64; 3],
+    /// Number of samples `N`.
+    pub samples: u64,
+}
+
+/// The path tracer over a scene's exact geometry.
+#[derive(Debug)]
+pub struct PathTracer {
+    accel: Accel,
+    prim_surface: Vec<usize>,
+    sides: Vec<[Option<SideMat>; 2]>,
+    surface_prims: Vec<Vec<usize>>,
+    eps: f64,
+}
+
+fn side_mat(scene: &Scene, id: usize, name: &str) -> Result<SideMat, RenderError> {
+    let m = scene
+        .materials
+        .get(id)
+        .ok_or_else(|| RenderError::Scene(format!("surface {name:?}: material {id} missing")))?;
+    if !matches!(m.emission_profile, EmissionProfile::Lambertian) && m.is_emitter() {
+        return Err(RenderError::Scene(format!(
+            "material {:?}: directional emitters are not supported by the diffuse reference",
+            m.name
+        )));
+    }
+    let mut rho = m.reflectance.0;
+    let mut e = m.emission.0;
+    if let Some(t) = m
+        .reflectance_texture
+        .and_then(|t| scene.textures.get(t.texture))
+    {
+        let t = t.mean().0;
+        rho = std::array::from_fn(|c| rho[c] * t[c]);
+    }
+    if let Some(t) = m
+        .emission_texture
+        .and_then(|t| scene.textures.get(t.texture))
+    {
+        let t = t.mean().0;
+        e = std::array::from_fn(|c| e[c] * t[c]);
+    }
+    for c in 0..3 {
+        if !(rho[c].is_finite() && (0.0..1.0).contains(&rho[c])) {
+            return Err(RenderError::Scene(format!(
+                "material {:?}: reflectance {} outside [0, 1)",
+                m.name, rho[c]
+            )));
+        }
+        if !(e[c].is_finite() && e[c] >= 0.0) {
+            return Err(RenderError::Scene(format!(
+                "material {:?}: emission {} not finite and >= 0",
+                m.name, e[c]
+            )));
+        }
+    }
+    Ok(SideMat { rho, e })
+}
+
+fn max3(v: [f64; 3]) -> f64 {
+    v[0].max(v[1]).max(v[2])
+}
+
+impl PathTracer {
+    /// Builds the accelerator over the scene's exact primitives.
+    ///
+    /// # Errors
+    /// [`RenderError::Scene`] for invalid geometry or materials, an empty scene, or
+    /// directional emitters.
+    pub fn new(scene: &Scene) -> Result<Self, RenderError> {
+        let prims = scene
+            .primitives(&scene.name)
+            .map_err(|e| RenderError::Scene(e.to_string()))?;
+        if prims.is_empty() {
+            return Err(RenderError::Scene("the scene has no surfaces".into()));
+        }
+        let mut sides = Vec::with_capacity(scene.surfaces.len());
+        for s in &scene.surfaces {
+            let front = side_mat(scene, s.material, &s.name)?;
+            let back = match s.sides {
+                Sidedness::TwoSided { back } => Some(side_mat(scene, back, &s.name)?),
+                _ => None,
+            };
+            sides.push([Some(front), back]);
+        }
+        let mut surface_prims = vec![Vec::new(); scene.surfaces.len()];
+        let mut prim_surface = Vec::with_capacity(prims.len());
+        let mut list = Vec::with_capacity(prims.len());
+        for (k, (s, p)) in prims.into_iter().enumerate() {
+            surface_prims[s].push(k);
+            prim_surface.push(s);
+            list.push(p);
+        }
+        let accel = Accel::build(list).map_err(|e| RenderError::Scene(e.to_string()))?;
+        let diag = accel.bounds().diagonal().length();
+        Ok(Self {
+            accel,
+            prim_surface,
+            sides,
+            surface_prims,
+            eps: SECONDARY_EPS_REL * diag,
+        })
+    }
+
+    /// The accelerator (primitive ids index the scene's flattened primitives).
+    pub fn accel(&self) -> &Accel {
+        &self.accel
+    }
+
+    /// Surface index and side material of a hit (`None`: black back side).
+    fn side_of(&self, hit: &Hit) -> Option<(usize, SideMat, DVec3)> {
+        let s = *self.prim_surface.get(hit.prim as usize)?;
+        let [front, back] = self.sides[s];
+        if hit.front {
+            Some((s, front?, hit.normal))
+        } else {
+            Some((s, back?, -hit.normal))
+        }
+    }
+
+    /// One-sample estimate of the irradiance `H(x)` (W/m²) at `x` on the side with
+    /// unit normal `n`: the random walk described in the module docs.
+    fn irradiance(&self, x: DVec3, n: DVec3, opts: &ReferenceOptions, rng: &mut Pcg64) -> [f64; 3] {
+        let mut out = [0.0; 3];
+        let mut thr = [1.0; 3];
+        let (mut o, mut nn) = (x, n);
+        for depth in 0..opts.max_depth {
+            let d = cosine_dir(nn, rng.random(), rng.random());
+            let ray = Ray {
+                origin: o + nn * self.eps,
+                dir: d,
+            };
+            let Some(hit) = self.accel.closest_hit(&ray, self.eps, f64::INFINITY) else {
+                break;
+            };
+            let Some((_, m, hn)) = self.side_of(&hit) else {
+                break;
+            };
+            for c in 0..3 {
+                out[c] += thr[c] * m.e[c];
+                thr[c] *= m.rho[c];
+            }
+            if depth + 1 >= opts.rr_depth {
+                let q = max3(thr).min(0.95);
+                if q <= 0.0 || rng.random::<f64>() >= q {
+                    break;
+                }
+                thr = thr.map(|t| t / q);
+            } else if max3(thr) <= 0.0 {
+                break;
+            }
+            o = hit.point;
+            nn = hn;
+        }
+        out
+    }
+
+    /// One-sample estimate of `B(x) = E + ρ·H(x)` on a side.
+    fn radiosity_sample(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        m: SideMat,
+        opts: &ReferenceOptions,
+        rng: &mut Pcg64,
+    ) -> [f64; 3] {
+        if max3(m.rho) <= 0.0 {
+            return m.e;
+        }
+        let h = self.irradiance(x, n, opts, rng);
+        std::array::from_fn(|c| m.e[c] + m.rho[c] * h[c])
+    }
+
+    /// Uniform-by-area point on a primitive, with its front normal.
+    fn sample_prim(p: &Primitive, rng: &mut Pcg64) -> Result<(DVec3, DVec3), RenderError> {
+        Ok(match p {
+            Primitive::Triangle(t) => {
+                let (u, v): (f64, f64) = (rng.random(), rng.random());
+                let r = u.sqrt();
+                let (b, c) = (r * (1.0 - v), r * v);
+                (
+                    t.v[0] + b * (t.v[1] - t.v[0]) + c * (t.v[2] - t.v[0]),
+                    t.normal(),
+                )
+            }
+            Primitive::Parallelogram(q) => {
+                (q.eval(DVec2::new(rng.random(), rng.random())), q.normal())
+            }
+            Primitive::Polygon(poly) => {
+                let (lo, hi) = poly.region.bounds();
+                let mut tries = 0;
+                loop {
+                    let q = lo + (hi - lo) * DVec2::new(rng.random(), rng.random());
+                    if poly.region.contains(q) {
+                        break (poly.frame.to_world(q), poly.normal());
+                    }
+                    tries += 1;
+                    if tries > 1_000_000 {
+                        return Err(RenderError::Scene(
+                            "polygon region too thin to sample".into(),
+                        ));
+                    }
+                }
+            }
+            _ => {
+                return Err(RenderError::Scene(
+                    "area sampling of curved primitives is not supported by the reference yet"
+                        .into(),
+                ));
+            }
+        })
+    }
+
+    /// Area-average radiosity of a surface's front side from `samples` uniformly
+    /// distributed points (one walk each).
+    ///
+    /// # Errors
+    /// [`RenderError::Invalid`] for a bad surface index or zero samples,
+    /// [`RenderError::Scene`] for surfaces with curved primitives.
+    pub fn surface_average(
+        &self,
+        surface: usize,
+        samples: u64,
+        opts: &ReferenceOptions,
+    ) -> Result<SurfaceEstimate, RenderError> {
+        let prims = self
+            .surface_prims
+            .get(surface)
+            .ok_or_else(|| invalid("surface", format!("{surface} out of range")))?;
+        if samples == 0 {
+            return Err(invalid("samples", "must be >= 1"));
+        }
+        if prims.is_empty() {
+            return Err(RenderError::Scene(format!(
+                "surface {surface} has no primitives"
+            )));
+        }
+        let front = self.sides[surface][0].ok_or_else(|| invalid("surface", "no front side"))?;
+        let all = self.accel.primitives();
+        let mut cdf = Vec::with_capacity(prims.len());
+        let mut tot = 0.0;
+        for &k in prims {
+            tot += all[k].area();
+            cdf.push(tot);
+        }
+        const CHUNK: u64 = 1024;
+        let chunks = samples.div_ceil(CHUNK);
+        let sums: Vec<Result<([f64; 3], [f64; 3]), RenderError>> = (0..chunks)
+            .into_par_iter()
+            .map(|ch| {
+                let mut s = [0.0; 3];
+                let mut s2 = [0.0; 3];
+                for i in ch * CHUNK..((ch + 1) * CHUNK).min(samples) {
+                    let mut rng = rng_for(opts.seed, surface as u64, i);
+                    let u = rng.random::<f64>() * tot;
+                    let j = cdf.partition_point(|&c| c <= u).min(prims.len() - 1);
+                    let (x, n) = Self::sample_prim(&all[prims[j]], &mut rng)?;
+                    let b = self.radiosity_sample(x, n, front, opts, &mut rng);
+                    for c in 0..3 {
+                        s[c] += b[c];
+                        s2[c] += b[c] * b[c];
+                    }
+                }
+                Ok((s, s2))
+            })
+            .collect();
+        let mut s = [0.0; 3];
+        let mut s2 = [0.0; 3];
+        for r in sums {
+            let (a, b) = r?;
+            for c in 0..3 {
+                s[c] += a[c];
+                s2[c] += b[c];
+            }
+        }
+        Ok(estimate(s, s2, samples))
+    }
+
+    /// [`PathTracer::surface_average`] for every surface (surfaces whose area cannot be
+    /// sampled give an error in their slot).
+    pub fn surface_averages(
+        &self,
+        samples: u64,
+        opts: &ReferenceOptions,
+    ) -> Vec<Result<SurfaceEstimate, RenderError>> {
+        (0..self.sides.len())
+            .map(|s| self.surface_average(s, samples, opts))
+            .collect()
+    }
+
+    /// Radiosity at a point of a surface side with unit normal `n` (the side the
+    /// normal points out of) from `paths` walks.
+    ///
+    /// # Errors
+    /// [`RenderError::Invalid`] for a bad surface index, zero paths, a non-unit normal,
+    /// or a back side that does not exist (one-sided surface).
+    pub fn radiosity_at(
+        &self,
+        surface: usize,
+        back: bool,
+        x: DVec3,
+        n: DVec3,
+        paths: u64,
+        opts: &ReferenceOptions,
+    ) -> Result<SurfaceEstimate, RenderError> {
+        let sides = self
+            .sides
+            .get(surface)
+            .ok_or_else(|| invalid("surface", format!("{surface} out of range")))?;
+        let m = sides[usize::from(back)]
+            .ok_or_else(|| invalid("side", "the back of a one-sided surface is black"))?;
+        if paths == 0 {
+            return Err(invalid("paths", "must be >= 1"));
+        }
+        if !(x.is_finite() && (n.length() - 1.0).abs() < 1e-6) {
+            return Err(invalid("point", "non-finite point or non-unit normal"));
+        }
+        let mut s = [0.0; 3];
+        let mut s2 = [0.0; 3];
+        let key = x
+            .to_array()
+            .iter()
+            .fold(0u64, |a, v| a ^ v.to_bits().rotate_left(17));
+        for i in 0..paths {
+            let mut rng = rng_for(opts.seed ^ key, surface as u64, i);
+            let b = self.radiosity_sample(x, n, m, opts, &mut rng);
+            for c in 0..3 {
+                s[c] += b[c];
+                s2[c] += b[c] * b[c];
+            }
+        }
+        Ok(estimate(s, s2, paths))
+    }
+
+    /// Renders `view` with `spp²` stratified samples per pixel, one walk each (pixel
+    /// value `B/π`); `progress` is called once per finished row.
+    ///
+    /// # Errors
+    /// [`RenderError::Invalid`] for `spp ∉ 1..=256`.
+    pub fn render(
+        &self,
+        view: &View,
+        spp: usize,
+        opts: &ReferenceOptions,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<Image, RenderError> {
+        if !(1..=256).contains(&spp) {
+            return Err(invalid("spp", format!("{spp} not in 1..=256")));
+        }
+        let (w, h) = (view.width, view.height);
+        let rows: Vec<Vec<[f64; 3]>> = (0..h)
+            .into_par_iter()
+            .map(|y| {
+                let mut row = vec![[0.0; 3]; w];
+                for (x, px) in row.iter_mut().enumerate() {
+                    let mut rng = rng_for(opts.seed, (y * w + x) as u64, 1);
+                    let mut acc = [0.0; 3];
+                    for sy in 0..spp {
+                        for sx in 0..spp {
+                            let jx = (sx as f64 + rng.random::<f64>()) / spp as f64;
+                            let jy = (sy as f64 + rng.random::<f64>()) / spp as f64;
+                            let ray = view.ray(x as f64 + jx, y as f64 + jy);
+                            let Some(hit) = self.accel.closest_hit(&ray, 0.0, f64::INFINITY) else {
+                                continue;
+                            };
+                            let Some((_, m, n)) = self.side_of(&hit) else {
+                                continue;
+                            };
+                            let b = self.radiosity_sample(hit.point, n, m, opts, &mut rng);
+                            for c in 0..3 {
+                                acc[c] += b[c];
+                            }
+                        }
+                    }
+                    let k = 1.0 / (std::f64::consts::PI * (spp * spp) as f64);
+                    *px = acc.map(|v| v * k);
+                }
+                progress(1);
+                row
+            })
+            .collect();
+        let mut img = Image::new(w, h);
+        for (y, r) in rows.into_iter().enumerate() {
+            img.pixels[y * w..(y + 1) * w].copy_from_slice(&r);
+        }
+        Ok(img)
+    }
+}
+
+fn estimate(s: [f64; 3], s2: [f64; 3], n: u64) -> SurfaceEstimate {
+    let nf = n as f64;
+    let mean = s.map(|v| v / nf);
+    let std_error = std::array::from_fn(|c| {
+        if n < 2 {
+            return f64::INFINITY;
+        }
+        let var = ((s2[c] - nf * mean[c] * mean[c]) / (nf - 1.0)).max(0.0);
+        (var / nf).sqrt()
+    });
+    SurfaceEstimate {
+        mean,
+        std_error,
+        samples: n,
+    }
+}
