@@ -104,6 +104,9 @@ pub enum Oracle {
     /// Kernel smoothness times `ρ_receiver · B_emitter` (brightness-weighted, "BF"
     /// refinement of Hanrahan et al.); `ε` is then in radiosity units (W/m²).
     Brightness,
+    /// Kernel smoothness of the transport kernel `ρ_receiver · G V` (Ziegler's
+    /// `F = R G`): the estimate times the receiver's largest reflectance.
+    Reflectance,
 }
 
 /// Parameters of the refinement.
@@ -160,6 +163,27 @@ fn can_split(ctx: &TransferCtx<'_>, k: &NodeKey, p: &RefineParams) -> bool {
     a >= p.min_area
 }
 
+/// The factor the oracle multiplies the kernel-smoothness estimate by.
+fn oracle_weight(
+    ctx: &TransferCtx<'_>,
+    p: &RefineParams,
+    r: &NodeKey,
+    e: &NodeKey,
+    brightness: &(dyn Fn(&NodeKey) -> f64 + Sync),
+) -> f64 {
+    let rho = || {
+        ctx.patches[r.patch as usize]
+            .reflectance
+            .iter()
+            .fold(0.0f64, |a, &b| a.max(b))
+    };
+    match p.oracle {
+        Oracle::KernelSmoothness => 1.0,
+        Oracle::Brightness => rho() * brightness(e),
+        Oracle::Reflectance => rho(),
+    }
+}
+
 /// Refines the link `(r, e)` (see the module docs). `brightness(e)` is the emitter's
 /// current radiosity estimate (max channel, W/m²) for the brightness oracle. Links
 /// whose elements do not face each other are dropped.
@@ -181,13 +205,7 @@ pub fn refine_link(
     if cr || ce {
         let mut est = ctx.estimate(&rr, &er);
         counts.oracle_evals += 1;
-        if p.oracle == Oracle::Brightness {
-            let rho = ctx.patches[r.patch as usize]
-                .reflectance
-                .iter()
-                .fold(0.0f64, |a, &b| a.max(b));
-            est *= rho * brightness(&e);
-        }
+        est *= oracle_weight(ctx, p, &r, &e, brightness);
         if est > p.eps {
             counts.refined += 1;
             let ar = ctx.patches[r.patch as usize].support.area * rr.h * rr.h;
@@ -301,13 +319,7 @@ pub fn rerefine(
                 let (rr, er) = (l.r.region(), l.e.region());
                 let mut est = ctx.estimate(&rr, &er);
                 counts.oracle_evals += 1;
-                if p.oracle == Oracle::Brightness {
-                    let rho = ctx.patches[l.r.patch as usize]
-                        .reflectance
-                        .iter()
-                        .fold(0.0f64, |a, &b| a.max(b));
-                    est *= rho * brightness(&l.e);
-                }
+                est *= oracle_weight(ctx, p, &l.r, &l.e, brightness);
                 if est > p.eps {
                     // Force the split: refine_link re-evaluates the oracle, which
                     // gives the same answer.

@@ -10,6 +10,8 @@ use crate::report::Report;
 use crate::reproduce::Ctx;
 
 mod virtual_mesh_fig4;
+mod ziegler_4_1;
+mod ziegler_4_2;
 
 /// One registered reproduction.
 pub struct Reproduction {
@@ -41,6 +43,20 @@ pub fn all() -> Vec<Reproduction> {
             seed_file: "001_663a8814abd90f9c.txt",
             title: "Ring-torus patch flattened by a constant-Jacobian map vs natural coordinates",
             run: virtual_mesh_fig4::run,
+        },
+        Reproduction {
+            id: "ziegler-4.1",
+            source: "Ziegler §4.1, Figs. 4.3–4.5",
+            seed_file: "004_cb5b08859768bf36.txt",
+            title: "Haar vs multiwavelets on the Unoccluded and Occluded scenes; fractional visibility",
+            run: ziegler_4_1::run,
+        },
+        Reproduction {
+            id: "ziegler-4.2",
+            source: "Ziegler §4.2, Figs. 4.12–4.15 and link table",
+            seed_file: "004_cb5b08859768bf36.txt",
+            title: "Picard vs GMRES vs CGNR on the box scenes (Haar, m = 5)",
+            run: ziegler_4_2::run,
         },
     ]
 }

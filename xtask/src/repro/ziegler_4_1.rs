@@ -1,0 +1,421 @@
+//! Ziegler §4.1 (seed 004): comparison of wavelet bases on the "Unoccluded" and
+//! "Occluded" scenes — relative L1 error on the receiver S0 against the number of
+//! links (Figs. 4.4, 4.5) and fractional visibility vs visibility in quadrature
+//! (Fig. 4.3).
+//!
+//! Every number of ours is computed here with `wavelux::solver`; the paper's numbers are
+//! the constants below, quoted from the seed text.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use crate::plot::{Axis, Series, Style, xy_plot};
+use crate::report::{Figure, Report, Row, Table, Tolerance};
+use crate::reproduce::{Ctx, write_atomic};
+use wavelux::geometry::formfactor::point_to_polygon;
+use wavelux::scene::builtin::{ZIEGLER_EMISSION, ZIEGLER_RHO0, occluded, unoccluded};
+use wavelux::scene::{Scene, Shape};
+use wavelux::solver::{BasisKind, Solution, SolverConfig, Visibility, solve};
+
+/// Ziegler §4.1.4: "acceptable solutions could be computed based on 2000 links".
+const PAPER_ACCEPTABLE_LINKS: f64 = 2000.0;
+/// Ziegler §4.1.4: 2000 links (< 32 000 form factors) are ≈ 3% of the 1024² full matrix.
+const PAPER_FULL_FRACTION: f64 = 0.03;
+
+/// Receiver radiosity on an `n × n` midpoint grid of S0 (patch 0 of surface 0).
+fn grid(sol: &Solution, n: usize) -> Vec<f64> {
+    let p = sol.by_surface[0][0];
+    let mut v = Vec::with_capacity(n * n);
+    for j in 0..n {
+        for i in 0..n {
+            let (s, t) = ((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
+            v.push(sol.radiosity(p, s, t)[0]);
+        }
+    }
+    v
+}
+
+fn l1(a: &[f64], reference: &[f64]) -> f64 {
+    let num: f64 = a.iter().zip(reference).map(|(x, y)| (x - y).abs()).sum();
+    let den: f64 = reference.iter().map(|y| y.abs()).sum();
+    num / den
+}
+
+/// Exact unoccluded solution `ρ₀ E F(p → S1)` on the grid (point-to-polygon form
+/// factors, Lambert's formula).
+fn analytic(scene: &Scene, n: usize) -> anyhow::Result<Vec<f64>> {
+    let Shape::Parallelogram {
+        origin,
+        edge_u,
+        edge_v,
+    } = scene.surfaces[1].shape
+    else {
+        anyhow::bail!("unoccluded emitter is not a parallelogram");
+    };
+    let poly = [
+        origin,
+        origin + edge_u,
+        origin + edge_u + edge_v,
+        origin + edge_v,
+    ];
+    // Receiver normal +z (built from the emitter's vector type; xtask has no glam).
+    let mut up = origin;
+    (up.x, up.y, up.z) = (0.0, 0.0, 1.0);
+    let mut v = Vec::with_capacity(n * n);
+    for j in 0..n {
+        for i in 0..n {
+            let mut x = origin;
+            (x.x, x.y, x.z) = (
+                (i as f64 + 0.5) / n as f64,
+                (j as f64 + 0.5) / n as f64,
+                0.0,
+            );
+            let f = point_to_polygon(x, up, &poly)?.abs();
+            v.push(ZIEGLER_RHO0 * ZIEGLER_EMISSION * f);
+        }
+    }
+    Ok(v)
+}
+
+/// Writes a grey-scale SVG image of an `n × n` grid (row 0 at the bottom).
+fn heatmap(path: &Path, title: &str, v: &[f64], n: usize, vmax: f64) -> anyhow::Result<()> {
+    let px = 6;
+    let size = n * px;
+    let mut s = String::new();
+    writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{}" height="{}" shape-rendering="crispEdges">"#,
+        size,
+        size + 24
+    )?;
+    writeln!(
+        s,
+        r#"<text x="4" y="16" font-family="sans-serif" font-size="13">{title}</text>"#
+    )?;
+    for j in 0..n {
+        for i in 0..n {
+            let g = (255.0 * (v[j * n + i] / vmax).clamp(0.0, 1.0).powf(1.0 / 2.2)).round() as u8;
+            writeln!(
+                s,
+                r#"<rect x="{}" y="{}" width="{px}" height="{px}" fill="rgb({g},{g},{g})"/>"#,
+                i * px,
+                24 + (n - 1 - j) * px
+            )?;
+        }
+    }
+    s.push_str("</svg>\n");
+    write_atomic(path, s.as_bytes())
+}
+
+struct Sweep {
+    label: String,
+    points: Vec<(f64, f64, usize)>,
+}
+
+fn sweep(
+    scene: &Scene,
+    basis: BasisKind,
+    level: u8,
+    eps: &[f64],
+    reference: &[f64],
+    n: usize,
+) -> anyhow::Result<Sweep> {
+    let mut points = Vec::new();
+    for &e in eps {
+        let cfg = SolverConfig {
+            basis,
+            eps: e,
+            max_level: level,
+            quad_points: 3,
+            ..SolverConfig::default()
+        };
+        let sol = solve(scene, &cfg)?;
+        let err = l1(&grid(&sol, n), reference);
+        points.push((sol.stats.nonstandard_links as f64, err, sol.stats.links));
+    }
+    Ok(Sweep {
+        label: format!("{} (m = {level})", basis.name()),
+        points,
+    })
+}
+
+/// The error of a sweep at `links` (log-log interpolation; clamped at the ends).
+fn error_at(s: &Sweep, links: f64) -> f64 {
+    let mut pts: Vec<(f64, f64)> = s.points.iter().map(|p| (p.0, p.1)).collect();
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if links <= pts[0].0 {
+        return pts[0].1;
+    }
+    for w in pts.windows(2) {
+        if links <= w[1].0 {
+            let t = (links.ln() - w[0].0.ln()) / (w[1].0.ln() - w[0].0.ln());
+            return (w[0].1.ln() + t * (w[1].1.ln() - w[0].1.ln())).exp();
+        }
+    }
+    pts[pts.len() - 1].1
+}
+
+/// Runs the reproduction.
+pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
+    let mut report = Report {
+        paper_did: "Ziegler §4.1 compares Haar (ε = 1e-5, m = 5), linear multiwavelets MW \
+(ε = 1e-4, m = 4) and CDV (ε = 1e-4, m = 3), each with 1024 functions on the receiver, \
+n_samp = 3, on \"Unoccluded\" (the Gortler et al. 1993 scene: a small rotated emitter \
+close to the receiver, E = 100, ρ₀ = 0.4; reference from the analytic point-to-polygon \
+form factor) and \"Occluded\" (emitting part of a parallel square, rotated blocker; \
+reference a master MW solution with ε = 1e-4, m = 5). Figs. 4.4/4.5 plot the relative L1 \
+error on S0 against the number of links (curves made by discarding the smallest \
+coefficients). Findings: acceptable unoccluded solutions with about 2000 links \
+(< 32 000 form factors, ≈ 3% of the 1024² full matrix); unoccluded ranking MW < CDV < \
+Haar (error); occluded: MW worst, CDV best, Haar almost as good as CDV at many links; \
+fractional visibility fails at shadow boundaries (Fig. 4.3)."
+            .into(),
+        ..Report::default()
+    };
+    let quick = ctx.quick;
+    let n_grid = if quick { 64 } else { 128 };
+    let (haar_m, mw_m, master_m): (u8, u8, u8) = if quick { (3, 2, 3) } else { (5, 4, 5) };
+    let eps_list: Vec<f64> = if quick {
+        vec![1e-1, 1e-2, 1e-3]
+    } else {
+        vec![3e-1, 1e-1, 3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5]
+    };
+    report.param("L1 grid on S0 (midpoints per axis)", n_grid);
+    report.param("levels Haar / MW (M2)", format!("{haar_m} / {mw_m}"));
+    report.param("ε sweep", format!("{eps_list:?}"));
+    report.param("n_samp", 3);
+    report.param("occluded master", format!("M2, ε = 1e-4, level {master_m}"));
+
+    // Unoccluded.
+    let un = unoccluded();
+    let un_ref = analytic(&un, n_grid)?;
+    let un_sweeps = vec![
+        sweep(&un, BasisKind::Haar, haar_m, &eps_list, &un_ref, n_grid)?,
+        sweep(
+            &un,
+            BasisKind::Multiwavelet(2),
+            mw_m,
+            &eps_list,
+            &un_ref,
+            n_grid,
+        )?,
+    ];
+    // Occluded master and sweeps.
+    let oc = occluded();
+    let master_cfg = SolverConfig {
+        basis: BasisKind::Multiwavelet(2),
+        eps: 1e-4,
+        max_level: master_m,
+        quad_points: 3,
+        ..SolverConfig::default()
+    };
+    let master = solve(&oc, &master_cfg)?;
+    let oc_ref = grid(&master, n_grid);
+    let oc_sweeps = vec![
+        sweep(&oc, BasisKind::Haar, haar_m, &eps_list, &oc_ref, n_grid)?,
+        sweep(
+            &oc,
+            BasisKind::Multiwavelet(2),
+            mw_m,
+            &eps_list,
+            &oc_ref,
+            n_grid,
+        )?,
+    ];
+    let mut tab = Vec::new();
+    for (scene, sweeps) in [("Unoccluded", &un_sweeps), ("Occluded", &oc_sweeps)] {
+        for s in sweeps.iter() {
+            for (e, p) in eps_list.iter().zip(&s.points) {
+                tab.push(vec![
+                    scene.to_string(),
+                    s.label.clone(),
+                    format!("{e:e}"),
+                    format!("{}", p.0),
+                    format!("{}", p.2),
+                    format!("{:.3e}", p.1),
+                ]);
+            }
+        }
+    }
+    for (fig, scene, sweeps) in [(4, "Unoccluded", &un_sweeps), (5, "Occluded", &oc_sweeps)] {
+        let p = ctx.figure_path(&format!("fig4.{fig}.svg"));
+        let series: Vec<Series> = sweeps
+            .iter()
+            .map(|s| {
+                Series::new(
+                    s.label.clone(),
+                    s.points.iter().map(|p| (p.0, p.1)).collect(),
+                    Style::LinePoints,
+                )
+            })
+            .collect();
+        xy_plot(
+            &p,
+            &format!("Fig. 4.{fig}: \"{scene}\", relative L1 error on S0"),
+            &Axis::log("links (Ziegler's count)"),
+            &Axis::log("relative L1 error"),
+            &series,
+        )?;
+        report.figures.push(Figure {
+            path: p,
+            caption: format!(
+                "Fig. 4.{fig} reproduced: relative L1 error on S0 ({n_grid}² midpoints) \
+against the number of links, one point per ε of the sweep (Ziegler instead discarded the \
+smallest coefficients of one fine solution). CDV is not implemented by wavelux-solver yet."
+            ),
+        });
+    }
+
+    // Rows.
+    let haar_un = error_at(&un_sweeps[0], PAPER_ACCEPTABLE_LINKS);
+    let mw_un = error_at(&un_sweeps[1], PAPER_ACCEPTABLE_LINKS);
+    report.rows.push(Row::new(
+        "Unoccluded: MW relative L1 error at 2000 links",
+        None,
+        mw_un,
+        "",
+        Tolerance::Info,
+    ));
+    report.rows.push(Row::new(
+        "Unoccluded: Haar error / MW error at 2000 links (thesis: MW best)",
+        None,
+        haar_un / mw_un,
+        "",
+        Tolerance::AtLeast(1.0),
+    ));
+    report.rows.push(Row::new(
+        "form factors of 2000 links / 1024² (16 per link)",
+        Some(PAPER_FULL_FRACTION),
+        PAPER_ACCEPTABLE_LINKS * 16.0 / (1024.0 * 1024.0),
+        "",
+        Tolerance::Relative(0.05),
+    ));
+    let best_mw_un = un_sweeps[1]
+        .points
+        .iter()
+        .map(|p| p.1)
+        .fold(f64::INFINITY, f64::min);
+    report.rows.push(Row::new(
+        "Unoccluded: smallest MW error in the sweep",
+        None,
+        best_mw_un,
+        "",
+        Tolerance::AtMost(0.05),
+    ));
+    let many = oc_sweeps
+        .iter()
+        .map(|s| s.points.iter().map(|p| p.0).fold(0.0, f64::max))
+        .fold(f64::INFINITY, f64::min);
+    let haar_oc = error_at(&oc_sweeps[0], many);
+    let mw_oc = error_at(&oc_sweeps[1], many);
+    report.rows.push(Row::new(
+        format!("Occluded: MW error / Haar error at {many} links (thesis: MW worst)"),
+        None,
+        mw_oc / haar_oc,
+        "",
+        Tolerance::AtLeast(1.0),
+    ));
+
+    // Fig. 4.3: fractional visibility vs visibility in quadrature, MW with 1024
+    // functions (level 4; quick: level 3).
+    let f_level = if quick { 3 } else { 4 };
+    let mut imgs = Vec::new();
+    for (name, vis) in [
+        ("visibility in quadrature", Visibility::InQuadrature),
+        ("fractional visibility", Visibility::Fractional),
+    ] {
+        let cfg = SolverConfig {
+            basis: BasisKind::Multiwavelet(2),
+            eps: 1e-4,
+            max_level: f_level,
+            visibility: vis,
+            quad_points: 3,
+            ..SolverConfig::default()
+        };
+        let sol = solve(&oc, &cfg)?;
+        let g = grid(&sol, n_grid);
+        imgs.push((name, l1(&g, &oc_ref), g, sol.stats.links));
+    }
+    let vmax = oc_ref.iter().fold(0.0f64, |a, &b| a.max(b));
+    let p = ctx.figure_path("fig4.3-master.svg");
+    heatmap(&p, "Occluded: master solution on S0", &oc_ref, n_grid, vmax)?;
+    report.figures.push(Figure {
+        path: p,
+        caption: format!("Occluded master solution on S0 (M2, ε = 1e-4, level {master_m})."),
+    });
+    for (i, (name, err, g, links)) in imgs.iter().enumerate() {
+        let p = ctx.figure_path(&format!("fig4.3-{}.svg", ["quadrature", "fractional"][i]));
+        heatmap(
+            &p,
+            &format!("Occluded, MW level {f_level}: {name}"),
+            g,
+            n_grid,
+            vmax,
+        )?;
+        report.figures.push(Figure {
+            path: p,
+            caption: format!(
+                "Fig. 4.3 reproduced: S0 with {name} ({links} link blocks), relative L1 error \
+{err:.3e} against the master."
+            ),
+        });
+    }
+    report.rows.push(Row::new(
+        "Fig. 4.3: L1 error fractional / in-quadrature visibility (thesis: fractional fails at shadows)",
+        None,
+        imgs[1].1 / imgs[0].1,
+        "",
+        Tolerance::AtLeast(1.0),
+    ));
+    let p = ctx.figure_path("analytic-unoccluded.svg");
+    let umax = un_ref.iter().fold(0.0f64, |a, &b| a.max(b));
+    heatmap(
+        &p,
+        "Unoccluded: analytic solution on S0",
+        &un_ref,
+        n_grid,
+        umax,
+    )?;
+    report.figures.push(Figure {
+        path: p,
+        caption: "Unoccluded analytic solution ρ₀ E F(p → S1) on S0.".into(),
+    });
+    report.tables.push(Table {
+        title: "ε sweeps".into(),
+        headers: [
+            "scene",
+            "basis",
+            "ε",
+            "links (Ziegler's count)",
+            "stored link blocks",
+            "relative L1 error",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: tab,
+    });
+    report.we_did = format!(
+        "Scenes from `wavelux::scene::builtin::{{unoccluded, occluded}}` (the thesis's figures \
+are lost; emitter of side 0.25 at height 0.1 rotated 30°, emitting part [0.25,0.75]² of the \
+upper square, blocker of side 0.4 at z = 0.5 rotated 30°; all documented there). Radiosity \
+on S0 is sampled at {n_grid}² cell midpoints; the unoccluded reference is ρ₀ E F(p → S1) with \
+exact point-to-polygon form factors (`wavelux::geometry::formfactor`), the occluded one a \
+master M2 solution (ε = 1e-4, level {master_m}, n_samp = 3). Instead of discarding \
+coefficients of one fine solution we sweep ε and count links the way Ziegler does (cell \
+pairs whose wavelet form factors were computed: refined links plus unrefined root links). \
+Oracle: kernel samples at interval midpoints (Haar: 2 per axis, MW: 3 per axis), maximum \
+over axes of the mean deviation, times √(|R||E|). CDV is not implemented in \
+wavelux-solver (not tree-structured); its curves are missing. The occluded scene's upper \
+square is split into four rectangles around the emitting square (one support each)."
+    );
+    for row in &mut report.rows {
+        if !row.ok && row.note.is_none() {
+            row.note = Some(
+                "Our rebuilt geometry and ε-sweep (instead of coefficient discarding) differ \
+from the thesis; see the sweep table for the full data."
+                    .into(),
+            );
+        }
+    }
+    Ok(report)
+}

@@ -1,0 +1,330 @@
+//! Ziegler §4.2 (seed 004): Picard vs GMRES vs CGNR on the box scenes with and without
+//! the inner cube at high (ρ_avg 0.52) and low (0.35) reflectance (Figs. 4.12–4.15),
+//! Haar, ε = 1e-4, m = 5, n_samp = 3.
+//!
+//! Every number of ours is computed here with `wavelux::solver`; the paper's numbers are
+//! the constants below, quoted from the seed text.
+
+use crate::plot::{Axis, Series, Style, xy_plot};
+use crate::report::{Figure, Report, Row, Table, Tolerance};
+use crate::reproduce::Ctx;
+use wavelux::scene::builtin::{BoxVariant, Reflectivity, ziegler_box};
+use wavelux::solver::{
+    BasisKind, Hierarchy, LinearMethod, Oracle, Prepared, SolverConfig, System, hierarchy,
+    solve_channel,
+};
+
+/// Ziegler §4.2.3: error of Picard / error of GMRES after three iterations, scenes in
+/// the order (no cube, high), (no cube, low), (cube, high), (cube, low). The thesis
+/// says "≈ 1/25 … in the unoccluded cases, ≈ 1/9 and ≈ 1/5 for the occluded scenes"
+/// (we read 1/9 as the high- and 1/5 as the low-reflectance occluded scene).
+const PAPER_RATIO_3: [f64; 4] = [25.0, 25.0, 9.0, 5.0];
+/// Ziegler §4.2 (Figs. 4.12–4.15 as summarised in the task statement): Picard
+/// iterations needed to match three GMRES iterations: more than 8 at high reflectance,
+/// 5–6 at low.
+/// ("more than 8" is checked as a lower bound, "5–6" as 5.5 ± 1.5).
+const PAPER_PICARD_EQUIV: [f64; 4] = [8.0, 5.5, 8.0, 5.5];
+/// Ziegler §4.2.2 table: computed links (no cube high, low; cube high, low).
+const PAPER_LINKS: [f64; 4] = [484_452.0, 283_272.0, 898_016.0, 606_398.0];
+/// Ziegler §4.2.2 table: potential links (no cube, cube).
+const PAPER_POTENTIAL: [f64; 2] = [2_516_580.0, 10_066_320.0];
+
+/// Our threshold. Ziegler's is 1e-4 in his (unstated) normalisation of the estimate;
+/// with ours (smoothness of ρ·G·V times √(|R||E|)) ε = 1e-4 refines almost every pair
+/// to level 5 (≈ 10⁷ links), so we use the threshold that gives link counts of the
+/// thesis's order (measured: ~10⁵ non-standard links at m = 5).
+const OUR_EPS: f64 = 1e-3;
+
+struct Case {
+    label: &'static str,
+    cube: bool,
+    refl: Reflectivity,
+}
+
+const CASES: [Case; 4] = [
+    Case {
+        label: "no cube, high ρ",
+        cube: false,
+        refl: Reflectivity::High,
+    },
+    Case {
+        label: "no cube, low ρ",
+        cube: false,
+        refl: Reflectivity::Low,
+    },
+    Case {
+        label: "cube, high ρ",
+        cube: true,
+        refl: Reflectivity::High,
+    },
+    Case {
+        label: "cube, low ρ",
+        cube: true,
+        refl: Reflectivity::Low,
+    },
+];
+
+fn errors(conv: &wavelux::linear::Convergence) -> Vec<f64> {
+    conv.iterations
+        .iter()
+        .map(|r| r.error.unwrap_or(f64::NAN))
+        .collect()
+}
+
+/// Runs the reproduction.
+pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
+    let mut report = Report {
+        paper_did: "Ziegler §4.2 solves the Haar wavelet radiosity system (ε = 1e-4, m = 5 \
+levels, n_samp = 3, non-standard form) of a 3-unit box lit by a 1×1 emitting part of the \
+ceiling, without (Fig. 4.10) and with (Fig. 4.11) a unit cube inside, at high (ρ_avg 0.52) \
+and low (0.35) reflectance, with Picard, GMRES and CGNR from the initial guess b, and plots \
+the error against a Picard solution after 80 iterations, error = ‖x_k − x̂‖₂/‖x̂‖₂ on the \
+unknown vector (Figs. 4.12–4.15). Findings: after three iterations GMRES's error is ≈ 1/25 \
+of Picard's (unoccluded) and ≈ 1/9, 1/5 (occluded); three GMRES iterations match more than \
+8 Picard iterations (high ρ) and 5–6 (low ρ); CGNR never beats Picard. Computed links: \
+484 452 / 283 272 / 898 016 / 606 398 of 2 516 580 / 10 066 320 potential."
+            .into(),
+        ..Report::default()
+    };
+    let max_level: u8 = if ctx.quick { 3 } else { 5 };
+    let iters = 10;
+    let cfg = SolverConfig {
+        basis: BasisKind::Haar,
+        eps: OUR_EPS,
+        max_level,
+        quad_points: 3,
+        oracle: Oracle::Reflectance,
+        ..SolverConfig::default()
+    };
+    report.param("basis", "Haar");
+    report.param("ε (oracle on ρ·G·V, ours; thesis 1e-4)", cfg.eps);
+    report.param("max level m", max_level);
+    report.param("n_samp (Gauss points per axis)", cfg.quad_points);
+    report.param("visibility", "in quadrature (one ray per sample pair)");
+    report.param("reference", "Picard, 80 iterations from b (as Ziegler)");
+    report.param("GMRES restart", 30);
+    report.param("S9 variant", "(a), ρ = 0.4");
+    let mut table_rows = Vec::new();
+    let mut link_rows = Vec::new();
+    for (ci, case) in CASES.iter().enumerate() {
+        let scene = ziegler_box(case.cube, case.refl, BoxVariant::A);
+        let t0 = std::time::Instant::now();
+        let prep = Prepared::new(&scene, &cfg)?;
+        let tctx = prep.transfer()?;
+        let params = prep.refine_params(cfg.eps);
+        let (links, counts) = hierarchy::refine_all(&tctx, &params, &|_| 1.0);
+        let h = Hierarchy::compile(prep.basis.n(), prep.patches.patches.len(), &links);
+        drop(links);
+        let system = System::new(h, &prep.basis, &prep.patches.patches);
+        let t_refine = t0.elapsed().as_secs_f64();
+        let (xref, _) = solve_channel(&system, 0, LinearMethod::Picard, 80, 0.0, None, None)?;
+        let run = |m: LinearMethod| -> anyhow::Result<Vec<f64>> {
+            let (_, c) = solve_channel(&system, 0, m, iters, 0.0, None, Some(xref.clone()))?;
+            Ok(errors(&c))
+        };
+        let picard = run(LinearMethod::Picard)?;
+        let gmres = run(LinearMethod::Gmres { restart: 30 })?;
+        let cgnr = run(LinearMethod::Cgnr)?;
+        let gs = run(LinearMethod::GaussSeidel)?;
+        let ratio3 = picard[3] / gmres[3];
+        // Picard iterations (interpolated in log error) needed to reach GMRES's error
+        // after 3 iterations.
+        let target = gmres[3];
+        let mut equiv = f64::NAN;
+        for k in 1..picard.len() {
+            if picard[k] <= target {
+                let (a, b) = (picard[k - 1].ln(), picard[k].ln());
+                equiv = (k - 1) as f64 + (a - target.ln()) / (a - b);
+                break;
+            }
+        }
+        if equiv.is_nan() {
+            // Extrapolate with the last contraction factor.
+            let n = picard.len() - 1;
+            let q = (picard[n] / picard[n - 1]).ln();
+            equiv = n as f64 + (target / picard[n]).ln() / q;
+        }
+        let cgnr_vs_picard = (1..=iters)
+            .map(|k| cgnr[k] / picard[k])
+            .fold(f64::INFINITY, f64::min);
+        report.rows.push(Row::new(
+            format!(
+                "Picard error / GMRES error after 3 iterations, {}",
+                case.label
+            ),
+            Some(PAPER_RATIO_3[ci]),
+            ratio3,
+            "",
+            Tolerance::Factor(3.0),
+        ));
+        report.rows.push(Row::new(
+            format!(
+                "Picard iterations matching 3 GMRES iterations, {}",
+                case.label
+            ),
+            Some(PAPER_PICARD_EQUIV[ci]),
+            equiv,
+            "iterations",
+            match case.refl {
+                Reflectivity::High => Tolerance::AtLeast(8.0),
+                _ => Tolerance::Absolute(1.5),
+            },
+        ));
+        report.rows.push(Row::new(
+            format!(
+                "min_k CGNR error / Picard error (k = 1..10), {}",
+                case.label
+            ),
+            None,
+            cgnr_vs_picard,
+            "",
+            Tolerance::AtLeast(1.0),
+        ));
+        let np = prep.patches.patches.len() as f64;
+        let potential = np
+            * np
+            * (0..max_level as u32)
+                .map(|l| 16f64.powi(l as i32))
+                .sum::<f64>();
+        let ns = (counts.refined + counts.unrefined_roots) as f64;
+        link_rows.push(vec![
+            case.label.to_string(),
+            format!("{}", PAPER_LINKS[ci]),
+            format!("{ns}"),
+            format!("{}", system.h.link_count()),
+            format!("{}", PAPER_POTENTIAL[if case.cube { 1 } else { 0 }]),
+            format!("{potential}"),
+            format!("{}", prep.patches.patches.len()),
+            format!("{:.1}", t_refine),
+        ]);
+        report.rows.push(Row::new(
+            format!("computed links (Ziegler's count), {}", case.label),
+            Some(PAPER_LINKS[ci]),
+            ns,
+            "links",
+            Tolerance::Factor(3.0),
+        ));
+        for k in 0..=iters {
+            table_rows.push(vec![
+                case.label.to_string(),
+                k.to_string(),
+                format!("{:.3e}", picard[k]),
+                format!("{:.3e}", gmres[k]),
+                format!("{:.3e}", cgnr[k]),
+                format!("{:.3e}", gs.get(k).copied().unwrap_or(f64::NAN)),
+            ]);
+        }
+        let pts = |v: &[f64]| -> Vec<(f64, f64)> {
+            v.iter()
+                .enumerate()
+                .filter(|(_, e)| **e > 0.0)
+                .map(|(k, e)| (k as f64, *e))
+                .collect()
+        };
+        let fig = 12 + [0, 2, 1, 3][ci];
+        let p = ctx.figure_path(&format!("fig4.{fig}.svg"));
+        xy_plot(
+            &p,
+            &format!("Fig. 4.{fig}: convergence, {}", case.label),
+            &Axis::linear("iteration"),
+            &Axis::log("relative error vs Picard-80"),
+            &[
+                Series::new("Picard", pts(&picard), Style::LinePoints),
+                Series::new("GMRES(30)", pts(&gmres), Style::LinePoints),
+                Series::new("CGNR", pts(&cgnr), Style::LinePoints),
+                Series::new("Gauss-Seidel (ours)", pts(&gs), Style::LinePoints),
+            ],
+        )?;
+        report.figures.push(Figure {
+            path: p,
+            caption: format!(
+                "Fig. 4.{fig} reproduced ({}): error ‖x_k − x̂‖/‖x̂‖ of the leaf coefficient \
+vector against 80 Picard iterations, all methods started from b. Hierarchical \
+Gauss–Seidel (sweeps over patches) added for comparison.",
+                case.label
+            ),
+        });
+    }
+    report.tables.push(Table {
+        title: "Link counts".into(),
+        headers: [
+            "scene",
+            "Ziegler computed",
+            "ours (Ziegler's count)",
+            "ours (stored blocks)",
+            "Ziegler potential",
+            "ours potential",
+            "our patches",
+            "refine + assembly time (s)",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: link_rows,
+    });
+    report.tables.push(Table {
+        title: "Errors per iteration".into(),
+        headers: ["scene", "k", "Picard", "GMRES", "CGNR", "Gauss-Seidel"]
+            .map(String::from)
+            .to_vec(),
+        rows: table_rows,
+    });
+    report.we_did = we_did_text(max_level);
+    for row in &mut report.rows {
+        if row.ok {
+            continue;
+        }
+        if row.quantity.starts_with("min_k CGNR") {
+            row.note = Some(
+                "Not matched: per iteration our CGNR (Saad's CGNR from wavelux-linear) is worse \
+than Picard in the first iterations but overtakes it after about three (see the error \
+table); per operator application (CGNR costs two) it is close to Picard. Ziegler §2.3.3 \
+describes the CGNE form; his CGNR never beat Picard. Possible causes: the variant, and \
+the spectrum of our rebuilt scenes; not investigated further."
+                    .into(),
+            );
+        } else if row.quantity.starts_with("computed links") {
+            row.note = Some(
+                "Geometry differs: Ziegler's figures are lost, our box is rebuilt from the \
+text (wavelux-scene `ziegler_box`), the ceiling with its emitting square is five \
+rectangles (four around the light plus the light) instead of one surface, and our oracle \
+samples at interval midpoints and scales by √(|R||E|); the count depends on all of these."
+                    .into(),
+            );
+        } else {
+            row.note = Some(
+                "Convergence rates depend on the operator's spectrum, which depends on the \
+rebuilt geometry (see the link-count note) and on the discretization; the qualitative \
+ranking is what we compare."
+                    .into(),
+            );
+        }
+    }
+    Ok(report)
+}
+
+fn we_did_text(max_level: u8) -> String {
+    format!(
+        "We rebuilt both box scenes with `wavelux::scene::builtin::ziegler_box` (outer box \
+[0,3]³, light = [1,2]² part of the ceiling with E = 100, inner unit cube [1,2]³; every \
+choice documented there), refined links top-down with the kernel-smoothness oracle (Haar: \
+difference of kernel samples at the two interval midpoints along each axis, averaged over \
+the other three axes, maximum over axes, times √(|R||E|), times the receiver's ρ as in \
+Ziegler's F = R G — his link counts differ between high and low ρ, so his estimate \
+includes ρ; ε = 1e-3, see below), up to level {max_level} \
+(Ziegler's m = 5 means 32×32 finest cells), with 3×3 Gauss points per element and one \
+shadow ray per sample pair, and singular Sauter–Schwab rules where elements share an edge \
+(Ziegler avoided such pairs). The hierarchical system (pull → gather → push, the \
+non-standard operator) is solved from x₀ = b by Picard, GMRES(30) and CGNR of \
+`wavelux-linear`, plus our hierarchical Gauss–Seidel; the reference is 80 Picard \
+iterations. The error is the Euclidean norm of the leaf-coefficient difference, which \
+equals the norm of the non-standard wavelet coefficients because the change of basis is \
+orthogonal (Ziegler's \"without weighting by area\": no extra area weights). Ziegler's \
+link count is the number of cell pairs whose 15 (16 on level 0) wavelet form factors were \
+computed: our refined links plus unrefined root links; potential links are \
+patches² × Σ_{{l<m}} 16^l. Deviation: ε. The thesis does not state the normalisation of \
+its estimate; with ours ε = 1e-4 would refine almost every pair of the 3-unit box to the \
+finest level (~10⁷ links at m = 5, beyond this run's budget), so we use ε = 1e-3, which \
+gives link counts of the thesis's order; the convergence comparison depends on the \
+operator's spectrum, which the thresholds barely change."
+    )
+}
