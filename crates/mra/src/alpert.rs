@@ -272,6 +272,19 @@ impl Mra for Alpert {
         check_step_lengths(self, level, fine.len(), coarse.len(), detail.len())?;
         let k = self.k;
         let tk = 2 * k;
+        if k == 1 {
+            // Haar fast path (no inner loops).
+            let (h0, h1, g0, g1) = (self.h[0], self.h[1], self.g[0], self.g[1]);
+            for ((f, c), d) in fine
+                .chunks_exact(2)
+                .zip(coarse.iter_mut())
+                .zip(detail.iter_mut())
+            {
+                *c = h0 * f[0] + h1 * f[1];
+                *d = g0 * f[0] + g1 * f[1];
+            }
+            return Ok(());
+        }
         for ((block, c), d) in fine
             .chunks_exact(tk)
             .zip(coarse.chunks_exact_mut(k))
@@ -294,6 +307,14 @@ impl Mra for Alpert {
         check_step_lengths(self, level, fine.len(), coarse.len(), detail.len())?;
         let k = self.k;
         let tk = 2 * k;
+        if k == 1 {
+            let (h0, h1, g0, g1) = (self.h[0], self.h[1], self.g[0], self.g[1]);
+            for ((f, &c), &d) in fine.chunks_exact_mut(2).zip(coarse).zip(detail) {
+                f[0] = h0 * c + g0 * d;
+                f[1] = h1 * c + g1 * d;
+            }
+            return Ok(());
+        }
         for ((block, c), d) in fine
             .chunks_exact_mut(tk)
             .zip(coarse.chunks_exact(k))
