@@ -6,7 +6,7 @@
 //! `u = M(s)/M(1)` (M the cumulative of m), `v = K(s, t)/m(s)` has the triangular
 //! Jacobian `(M(1)/m(s))·(m(s)/J)` in (s, t), so the area element on the surface is
 //! the constant `M(1)` = patch area. Both integrals use composite Gauss–Legendre rules
-//! (8 panels × 10 points in t, 16 panels × 10 points in s) and are inverted by
+//! (4 panels × 10 points in t, 16 panels × 10 points in s) and are inverted by
 //! bracketed Newton; the point inverse is damped Gauss–Newton on the Bézier patch.
 //! Evaluation costs a few thousand `J` evaluations (tens of µs).
 
@@ -18,7 +18,7 @@ use glam::{DVec2, DVec3};
 use std::sync::Arc;
 use wavelux_quadrature::GaussLegendre;
 
-const T_PANELS: usize = 8;
+const T_PANELS: usize = 4;
 const S_PANELS: usize = 16;
 const ORDER: usize = 10;
 

@@ -40,8 +40,6 @@ mod surface;
 mod torus;
 
 pub use bezier_patch::BezierPatch;
-/// The vector types of the public API (`DVec2`, `DVec3`), re-exported.
-pub use glam;
 pub use curves::{BezierCurve, Cardioid, Curve, Helix};
 pub use direction::{
     ConcentricHemisphere, DirectionMap, GlossyHemisphere, OctahedralSphere,
@@ -50,6 +48,8 @@ pub use direction::{
 pub use error::ParamError;
 pub use flat::{GeneralizedCylinder, Revolution, TangentDevelopable};
 pub use frame::{Aabb, Frame, SurfacePoint};
+/// The vector types of the public API (`DVec2`, `DVec3`), re-exported.
+pub use glam;
 pub use mep::{
     BoundarySegment, convex_hull, min_enclosing_parallelogram,
     min_enclosing_parallelogram_of_boundary,

@@ -112,6 +112,9 @@ impl Cumulative {
     /// The `t` with `C(t) = c`, for `c` in `[0, total]` (clamped).
     pub fn inverse(&self, c: f64, rho: impl Fn(f64) -> f64) -> f64 {
         let total = self.total();
+        if c.is_nan() {
+            return f64::NAN;
+        }
         let c = c.clamp(0.0, total);
         // Last breakpoint <= c.
         let n = self.breaks.len() - 1;
