@@ -9,6 +9,10 @@ use plotters::prelude::*;
 use std::path::Path;
 
 /// How a series is drawn.
+#[allow(
+    dead_code,
+    reason = "the harness offers every style to all reproductions; not each is used at every moment"
+)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Style {
     /// Polyline through the points.
@@ -50,6 +54,10 @@ pub struct Axis {
     pub log: bool,
 }
 
+#[allow(
+    dead_code,
+    reason = "the harness offers linear and log axes to all reproductions; not each is used at every moment"
+)]
 impl Axis {
     /// A linear axis.
     pub fn linear(label: impl Into<String>) -> Self {

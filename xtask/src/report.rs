@@ -5,6 +5,10 @@ use serde::Serialize;
 use std::path::PathBuf;
 
 /// How close `ours` must be to `paper` for a row to pass.
+#[allow(
+    dead_code,
+    reason = "the harness offers every criterion to all reproductions; not each is used at every moment"
+)]
 #[derive(Debug, Clone, Copy, Serialize)]
 #[serde(tag = "kind", content = "value", rename_all = "snake_case")]
 pub enum Tolerance {
