@@ -234,10 +234,10 @@ pub fn gltf_embedded(meshes: &[MeshSpec], mats: &[MatSpec], images: &[Vec<u8>]) 
 pub fn glb(meshes: &[MeshSpec], mats: &[MatSpec], images: &[Vec<u8>]) -> Vec<u8> {
     let (root, mut bin) = build(meshes, mats, images, None);
     let mut json = serde_json::to_vec(&root).expect("serialise");
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let total = 12 + 8 + json.len() + 8 + bin.len();
