@@ -2,4 +2,5 @@
 //! topic.
 
 mod mra_quadrature;
+mod scene_gltf;
 mod workspace;
