@@ -34,7 +34,11 @@ fn multiwavelet_projection_equals_direct_integrals() {
 fn projection_defect_decays_at_the_approximation_order() {
     let gl = GaussLegendre::new(40).unwrap();
     let norm2: f64 = (0..16)
-        .map(|i| gl.integrate(i as f64 / 16.0, (i + 1) as f64 / 16.0, |x| smooth(x).powi(2)))
+        .map(|i| {
+            gl.integrate(i as f64 / 16.0, (i + 1) as f64 / 16.0, |x| {
+                smooth(x).powi(2)
+            })
+        })
         .sum();
     let mras: Vec<Box<dyn Mra>> = vec![
         Box::new(Alpert::haar()),
@@ -45,7 +49,14 @@ fn projection_defect_decays_at_the_approximation_order() {
         let p = m.polynomial_degree() as i32 + 1;
         let mut defects = Vec::new();
         for level in m.min_level() + 2..m.min_level() + 6 {
-            let c = project(m.as_ref(), 1, level, |x| smooth(x[0]), GaussOptions::default()).unwrap();
+            let c = project(
+                m.as_ref(),
+                1,
+                level,
+                |x| smooth(x[0]),
+                GaussOptions::default(),
+            )
+            .unwrap();
             let s: f64 = c.iter().map(|v| v * v).sum();
             assert!(s <= norm2 * (1.0 + 1e-14), "{} Bessel", m.name());
             defects.push(norm2 - s);
@@ -77,7 +88,11 @@ fn separable_projection_factors() {
         let n = m.len(level);
         for i in 0..n {
             for j in 0..n {
-                assert!((c2[i * n + j] - cx[i] * cy[j]).abs() < 1e-13, "{}", m.name());
+                assert!(
+                    (c2[i * n + j] - cx[i] * cy[j]).abs() < 1e-13,
+                    "{}",
+                    m.name()
+                );
             }
         }
         for s in 0..=8 {
