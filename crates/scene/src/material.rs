@@ -83,14 +83,19 @@ pub struct Texture {
 }
 
 impl Texture {
-    /// Nearest-texel lookup with repeat wrapping (glTF's default sampler wrap mode).
+    /// Nearest-texel lookup with repeat wrapping (glTF's default sampler wrap mode);
+    /// black for non-finite coordinates or an inconsistent texture.
     pub fn sample_nearest(&self, u: f64, v: f64) -> Rgb {
         let wrap = |t: f64, n: usize| -> usize {
             let f = t - t.floor();
             let i = (f * n as f64) as usize;
             i.min(n - 1)
         };
-        if !(u.is_finite() && v.is_finite()) || self.texels.is_empty() {
+        if !(u.is_finite() && v.is_finite())
+            || self.width == 0
+            || self.height == 0
+            || self.texels.len() < self.width * self.height
+        {
             return Rgb::BLACK;
         }
         let x = wrap(u, self.width);

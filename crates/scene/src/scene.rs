@@ -123,17 +123,22 @@ impl Scene {
         self.surfaces.iter().map(|s| s.shape.area()).sum()
     }
 
-    /// Total emitted power `Σ area × E` per channel over all emitting sides (W), for
-    /// untextured emission (textured emission uses the texture mean).
+    /// Total emitted power `Σ area × E` per channel over all emitting sides (W);
+    /// textured emission uses the texture mean. Invalid material ids count as black.
     pub fn emitted_power(&self) -> [f64; 3] {
         let mut p = [0.0; 3];
         for s in &self.surfaces {
             let a = s.shape.area();
             let mut add = |m: MaterialId| {
-                let mat = &self.materials[m];
+                let Some(mat) = self.materials.get(m) else {
+                    return;
+                };
                 let mut e = mat.emission;
-                if let Some(t) = mat.emission_texture {
-                    e = e.times(self.textures[t.texture].mean());
+                if let Some(t) = mat
+                    .emission_texture
+                    .and_then(|t| self.textures.get(t.texture))
+                {
+                    e = e.times(t.mean());
                 }
                 for c in 0..3 {
                     p[c] += a * e.0[c];
@@ -167,9 +172,12 @@ impl Scene {
         }
         for mut s in other.surfaces {
             s.name = format!("{prefix}{}", s.name);
-            s.material = map[s.material];
+            // Ids out of range (an unvalidated scene) stay out of range, so that
+            // `validate` still reports them.
+            let remap = |id: MaterialId| map.get(id).copied().unwrap_or(usize::MAX);
+            s.material = remap(s.material);
             if let Sidedness::TwoSided { back } = &mut s.sides {
-                *back = map[*back];
+                *back = remap(*back);
             }
             self.add_surface(s);
         }

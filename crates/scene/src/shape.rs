@@ -513,9 +513,13 @@ pub struct BezierPatch {
 
 impl BezierPatch {
     /// Evaluates the patch and its partial derivatives at `(u, v) ∈ [0,1]²` by de
-    /// Casteljau's algorithm; returns `(P, ∂P/∂u, ∂P/∂v)`.
+    /// Casteljau's algorithm; returns `(P, ∂P/∂u, ∂P/∂v)` (NaN for a patch whose
+    /// control-point count does not match its degrees).
     pub fn eval(&self, u: f64, v: f64) -> (DVec3, DVec3, DVec3) {
         let (m, n) = (self.degree_u, self.degree_v);
+        if m == 0 || n == 0 || self.control.len() != (m + 1) * (n + 1) {
+            return (DVec3::NAN, DVec3::NAN, DVec3::NAN);
+        }
         // Reduce along v for each u-row, keeping the last two points for ∂/∂v.
         let casteljau = |pts: &mut Vec<DVec3>, t: f64| -> (DVec3, DVec3) {
             let k = pts.len() - 1;
@@ -541,7 +545,7 @@ impl BezierPatch {
     }
 
     /// The same patch as a bicubic 4×4 control net `[i][j]` (`i` along `u`), by exact
-    /// degree elevation. Requires a valid patch (see [`Shape::validate`]).
+    /// degree elevation; NaN for an invalid patch (see [`Shape::validate`]).
     pub fn bicubic(&self) -> [[DVec3; 4]; 4] {
         // Elevate one polygon of degree n by one: Q_i = i/(n+1) P_{i−1} + (1 − i/(n+1)) P_i.
         fn elevate(p: &[DVec3]) -> Vec<DVec3> {
@@ -562,6 +566,10 @@ impl BezierPatch {
             p
         }
         let (m, n) = (self.degree_u, self.degree_v);
+        if !(1..=3).contains(&m) || !(1..=3).contains(&n) || self.control.len() != (m + 1) * (n + 1)
+        {
+            return [[DVec3::NAN; 4]; 4];
+        }
         // Elevate along v for each u-row, then along u for each v-column.
         let rows: Vec<Vec<DVec3>> = (0..=m)
             .map(|i| to_cubic(self.control[i * (n + 1)..(i + 1) * (n + 1)].to_vec()))
