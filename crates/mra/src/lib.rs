@@ -30,6 +30,24 @@
 //! `2^-j`, `k` functions per cell); for CDV, `len(j) = 2^j` with `j ≥ 2`. Ziegler counts
 //! CDV levels from the coarsest space with 4 functions, so his CDV level `j` is our
 //! level `j + 2` (his "level 3, n = 32" is our level 5).
+//!
+//! ```
+//! use wavelux_mra::project::{GaussOptions, evaluate, project};
+//! use wavelux_mra::tensor::{nonstandard_decompose, nonstandard_reconstruct};
+//! use wavelux_mra::Alpert;
+//!
+//! // Project f(x, y) = x·y onto V_3 ⊗ V_3 of the linear multiwavelets M_2 (exact: M_2
+//! // reproduces linear functions in each variable).
+//! let m = Alpert::new(2)?;
+//! let c = project(&m, 2, 3, |p| p[0] * p[1], GaussOptions::default())?;
+//! assert!((evaluate(&m, 2, 3, &c, &[0.3, 0.7])? - 0.21).abs() < 1e-12);
+//! // Non-standard decomposition to level 0 and back.
+//! let mut w = c.clone();
+//! nonstandard_decompose(&m, 2, 3, 0, &mut w)?;
+//! nonstandard_reconstruct(&m, 2, 3, 0, &mut w)?;
+//! assert!(w.iter().zip(&c).all(|(a, b)| (a - b).abs() < 1e-12));
+//! # Ok::<(), wavelux_mra::MraError>(())
+//! ```
 
 pub mod alpert;
 pub mod cdv;
@@ -37,7 +55,6 @@ mod linalg;
 pub mod poly;
 pub mod project;
 pub mod sparse;
-
 pub mod tensor;
 pub mod transform;
 
