@@ -9,6 +9,8 @@
 //! - [`formfactor`]: analytic form factors (Lambert point-to-polygon, contour integral
 //!   polygon-to-polygon, catalog configurations).
 //! - [`bezier`]: bicubic Bézier evaluation and subdivision.
+//! - [`mod@tessellate`]: tessellated baselines (spade CDT for polygons and trims, uniform or
+//!   curvature-adaptive grids for curved patches) as indexed triangle meshes.
 //! - [`intersect`]: exact ray intersection for every primitive; [`poly`]: robust polynomial roots.
 //!
 //! ```
@@ -28,12 +30,17 @@ pub mod formfactor;
 pub mod intersect;
 pub mod poly;
 pub mod primitive;
+pub mod tessellate;
 pub mod trim;
 
 pub use accel::{Accel, OcclusionQuery};
 pub use primitive::{
     Aabb, BezierPatch, ComplexPolygon, Hit, Parallelogram, PlaneFrame, PrimId, Primitive, Ray,
     Triangle, TrimmedPatch,
+};
+pub use tessellate::{
+    Grid, PrimitiveMesh, TessellationError, TessellationOptions, TriangleMesh, tessellate,
+    tessellate_all,
 };
 pub use trim::{Edge2, TrimLoop, TrimRegion};
 
