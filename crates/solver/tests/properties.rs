@@ -330,3 +330,60 @@ fn rejects_bad_input() {
     assert_eq!(sys.dim(), prep.patches.patches.len());
     let _ = hierarchy::SplitPolicy::Larger;
 }
+
+/// The multigrid-like refine–solve loop (Ziegler Alg. 2.3.4) with the brightness
+/// oracle ends close to a direct solve at the final threshold, and fractional
+/// visibility equals visibility in quadrature when nothing occludes.
+#[test]
+fn multigrid_loop_and_visibility_modes() {
+    use wavelux_solver::{Multigrid, Oracle, Visibility};
+    let scene = small_scene(1.0, DMat4::IDENTITY);
+    let direct = solve(&scene, &cfg()).unwrap();
+    let mg = solve(
+        &scene,
+        &SolverConfig {
+            multigrid: Some(Multigrid {
+                stages: 3,
+                factor: 10.0,
+            }),
+            ..cfg()
+        },
+    )
+    .unwrap();
+    assert_eq!(mg.stats.stages, 3);
+    for s in 0..scene.surfaces.len() {
+        let (a, b) = (direct.surface_average(s)[0], mg.surface_average(s)[0]);
+        assert!((a - b).abs() < 2e-2 * a.abs().max(1e-12), "surface {s}: {a} vs {b}");
+    }
+    let bf = solve(
+        &scene,
+        &SolverConfig {
+            oracle: Oracle::Brightness,
+            eps: 1e-2,
+            multigrid: Some(Multigrid {
+                stages: 2,
+                factor: 10.0,
+            }),
+            ..cfg()
+        },
+    )
+    .unwrap();
+    let (a, b) = (direct.surface_average(0)[0], bf.surface_average(0)[0]);
+    assert!((a - b).abs() < 5e-2 * a, "BF floor {b} vs {a}");
+    // No blocker: fractional and in-quadrature visibility give the same blocks.
+    let mut open = small_scene(1.0, DMat4::IDENTITY);
+    open.surfaces.retain(|s| s.name != "blocker");
+    let q = solve(&open, &cfg()).unwrap();
+    let f = solve(
+        &open,
+        &SolverConfig {
+            visibility: Visibility::Fractional,
+            ..cfg()
+        },
+    )
+    .unwrap();
+    for s in 0..open.surfaces.len() {
+        let (a, b) = (q.surface_average(s)[0], f.surface_average(s)[0]);
+        assert!((a - b).abs() <= 1e-9 * a.abs().max(1e-12), "{a} vs {b}");
+    }
+}

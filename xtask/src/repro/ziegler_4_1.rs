@@ -174,7 +174,7 @@ fractional visibility fails at shadow boundaries (Fig. 4.3)."
     };
     let quick = ctx.quick;
     let n_grid = if quick { 64 } else { 128 };
-    let (haar_m, mw_m, master_m): (u8, u8, u8) = if quick { (3, 2, 3) } else { (5, 4, 5) };
+    let (haar_m, mw_m, master_m): (u8, u8, u8) = if quick { (4, 3, 4) } else { (5, 4, 5) };
     let eps_list: Vec<f64> = if quick {
         vec![1e-1, 1e-2, 1e-3]
     } else {
