@@ -2,5 +2,6 @@
 //! topic.
 
 mod mra_quadrature;
+mod radiosity;
 mod scene_gltf;
 mod workspace;
