@@ -11,8 +11,9 @@
 //!   loop is inserted as constraint edges of a spade constrained Delaunay triangulation
 //!   (CDT), and only the triangles whose centroid has non-zero winding number with
 //!   respect to the *flattened* loops are kept (slab winding test of [`TrimRegion`]).
-//!   Optional Delaunay refinement (spade's `refine`, Ruppert/Chew style, 20° angle limit)
-//!   bounds the triangle area by `(√3/4)·max_edge²` so long thin triangles are avoided.
+//!   Delaunay refinement (spade's `refine`, Ruppert/Chew style, minimum angle
+//!   [`TessellationOptions::min_angle_deg`], default 20°) avoids long thin triangles and,
+//!   with `max_edge`, bounds the triangle area by `(√3/4)·max_edge²`.
 //! * Curved patches ([`TrimmedPatch`] on any `wavelux-param` surface, [`BezierPatch`]):
 //!   points of a uniform `n × n` grid or of a curvature-adaptive quadtree in parameter
 //!   space (a cell is split while the surface at its centre or edge midpoints deviates
@@ -24,6 +25,23 @@
 //!
 //! Every mesh is consistently oriented: face normals `(b−a)×(c−a)` agree with the
 //! primitive's front normal.
+//!
+//! ```
+//! use glam::DVec2;
+//! use wavelux_geometry::{ComplexPolygon, PlaneFrame, Primitive, TessellationOptions, TrimLoop, TrimRegion, tessellate};
+//!
+//! // Unit square with a circular hole of radius 0.25.
+//! let outer = TrimLoop::rect(DVec2::ZERO, DVec2::ONE).unwrap();
+//! let hole = TrimLoop::circle(DVec2::splat(0.5), 0.25).unwrap().reversed();
+//! let frame = PlaneFrame::from_normal(glam::DVec3::ZERO, glam::DVec3::Z).unwrap();
+//! let poly = ComplexPolygon::new(frame, TrimRegion::new(vec![outer, hole]).unwrap()).unwrap();
+//! let prim = Primitive::from(poly);
+//! let mesh = tessellate(&prim, &TessellationOptions::adaptive(1e-4)).unwrap();
+//! mesh.validate().unwrap();
+//! // Chords cut circular segments off the hole: the mesh is slightly larger, within the bound.
+//! let err = mesh.area() - prim.area();
+//! assert!(err > 0.0 && err <= std::f64::consts::TAU * 0.25 * 1e-4 * 2f64.sqrt());
+//! ```
 
 use std::collections::HashMap;
 use std::f64::consts::TAU;
@@ -248,10 +266,16 @@ pub struct TessellationOptions {
     pub max_depth: u32,
     /// Upper bound on the vertex count of one mesh (guards against runaway input).
     pub max_vertices: usize,
+    /// Smallest triangle angle in degrees asked from spade's Delaunay refinement of the
+    /// CDTs (polygons and trimmed/adaptive patches; `0` = no angle refinement, at most
+    /// 30°; the Ruppert/Chew bound that guarantees termination is about 20.7°). Avoids
+    /// long thin triangles at the price of extra Steiner points.
+    pub min_angle_deg: f64,
 }
 
 impl Default for TessellationOptions {
-    /// `chord_tolerance = 1e-3`, no `max_edge`, `Grid::Adaptive`, depth 8, 2²⁰ vertices.
+    /// `chord_tolerance = 1e-3`, no `max_edge`, `Grid::Adaptive`, depth 8, 2²⁰ vertices,
+    /// 20° minimum angle.
     fn default() -> Self {
         TessellationOptions {
             chord_tolerance: 1e-3,
@@ -259,6 +283,7 @@ impl Default for TessellationOptions {
             grid: Grid::Adaptive,
             max_depth: 8,
             max_vertices: 1 << 20,
+            min_angle_deg: 20.0,
         }
     }
 }
@@ -308,6 +333,11 @@ impl TessellationOptions {
         }
         if self.max_depth > 12 {
             return Err(TessellationError::InvalidOptions("max_depth must be <= 12"));
+        }
+        if !(0.0..=30.0).contains(&self.min_angle_deg) {
+            return Err(TessellationError::InvalidOptions(
+                "min_angle_deg must lie in [0, 30]",
+            ));
         }
         if self.max_vertices < 3 {
             return Err(TessellationError::InvalidOptions(
@@ -395,10 +425,6 @@ pub fn flatten_region(
     Ok(out)
 }
 
-/// Smallest triangle angle (degrees) requested from spade's Delaunay refinement (the
-/// Ruppert/Chew bound guaranteeing termination is about 20.7°).
-pub const MIN_ANGLE_DEG: f64 = 20.0;
-
 /// Result of a 2-D constrained triangulation: vertices and counter-clockwise triangles.
 struct Tri2 {
     pts: Vec<DVec2>,
@@ -411,8 +437,8 @@ fn spade_err(e: spade::InsertionError) -> TessellationError {
 
 /// CDT of the flattened `loops` (as constraints) plus `steiner` points, optionally
 /// refined to triangle area `≤ max_area`; keeps the triangles whose centroid has non-zero
-/// winding with respect to the flattened loops. With `quality` (or a `max_area`) the
-/// CDT is refined by spade (minimum angle [`MIN_ANGLE_DEG`]) after every round.
+/// winding with respect to the flattened loops. With `min_angle > 0` (degrees) or a
+/// `max_area` the CDT is refined by spade after every round.
 ///
 /// `needs_point(triangle)` may flag kept triangles (counter-clockwise corner array) whose
 /// centroid is then inserted as a further Steiner point; this repeats for at most
@@ -421,7 +447,7 @@ fn cdt_region(
     loops: &[Vec<DVec2>],
     steiner: &[DVec2],
     max_area: Option<f64>,
-    quality: bool,
+    min_angle: f64,
     limit: usize,
     needs_point: &dyn Fn([DVec2; 3]) -> bool,
     rounds: usize,
@@ -472,13 +498,13 @@ fn cdt_region(
         }
     }
     let refine = |cdt: &mut ConstrainedDelaunayTriangulation<Point2<f64>>| {
-        if max_area.is_none() && !quality {
+        if max_area.is_none() && min_angle <= 0.0 {
             return Ok(());
         }
         let budget = limit.saturating_sub(cdt.num_vertices());
         let mut params = RefinementParameters::<f64>::new()
             .exclude_outer_faces(true)
-            .with_angle_limit(AngleLimit::from_deg(MIN_ANGLE_DEG))
+            .with_angle_limit(AngleLimit::from_deg(min_angle))
             .with_max_additional_vertices(budget);
         if let Some(a) = max_area {
             params = params.with_max_allowed_area(a);
@@ -792,7 +818,7 @@ pub fn tessellate_polygon(
         &loops,
         &steiner,
         max_area,
-        false,
+        opts.min_angle_deg,
         opts.max_vertices,
         &|_| false,
         0,
@@ -1090,7 +1116,15 @@ fn tessellate_surface(
             || (adaptive && (s.pos(c) - (x[0] + x[1] + x[2]) / 3.0).length() > tol3)
     };
     let rounds = if adaptive { 12 } else { 4 };
-    let t2 = cdt_region(&loops, &steiner, None, true, limit, &needs_point, rounds)?;
+    let t2 = cdt_region(
+        &loops,
+        &steiner,
+        None,
+        opts.min_angle_deg,
+        limit,
+        &needs_point,
+        rounds,
+    )?;
     let mut m = TriangleMesh::default();
     for q in &t2.pts {
         push_surface_vertex(&mut m, s, *q)?;

@@ -178,6 +178,10 @@ proptest! {
             for (a, b) in m.boundary_edges() {
                 prop_assert!((m.positions[a as usize] - m.positions[b as usize]).length() <= e * (1.0 + 1e-12));
             }
+            // Interior: area ≤ (√3/4)e² and all angles ≥ 20° give edges ≤ 2.2 e.
+            for (a, b) in m.edge_counts().keys() {
+                prop_assert!((m.positions[*a as usize] - m.positions[*b as usize]).length() <= 2.2 * e);
+            }
         }
     }
 }
@@ -558,6 +562,7 @@ proptest! {
         max_edge in prop::option::of(prop_oneof![Just(0.0), Just(f64::NAN), 0.05f64..5.0]),
         depth in 0u32..14,
         which in 0usize..3,
+        angle in prop_oneof![Just(0.0), Just(f64::NAN), 0.0f64..35.0],
     ) {
         let prim = match which {
             0 => Primitive::from(arc_polygon(1.0)),
@@ -570,6 +575,7 @@ proptest! {
             grid: if adaptive { Grid::Adaptive } else { Grid::Uniform(n) },
             max_depth: depth,
             max_vertices: 20_000,
+            min_angle_deg: angle,
         };
         if let Ok(m) = tessellate(&prim, &opts) {
             prop_assert!(m.validate().is_ok());
@@ -596,4 +602,36 @@ fn full_sphere_and_half_pi_latitudes() {
         errs.push((m.area() - exact).abs() / exact);
     }
     assert!(errs.windows(2).all(|w| w[1] < 0.5 * w[0]), "{errs:?}");
+}
+
+/// Adaptive meshes meet the chordal tolerance: at every triangle's parameter centroid the
+/// surface lies within `chord_tolerance · diag` of the flat triangle's centroid.
+#[test]
+fn adaptive_meets_chordal_tolerance() {
+    let prims = [
+        Primitive::from(bezier()),
+        Primitive::from(sphere_patch(Some(disc_trim()), true)),
+        Primitive::from(sphere_patch(None, false)),
+    ];
+    for prim in &prims {
+        let diag = prim.aabb().diagonal().length();
+        let mut count = 0;
+        for tol in [1e-2, 1e-3, 1e-4] {
+            let m = tessellate(prim, &TessellationOptions::adaptive(tol)).unwrap();
+            let mut worst: f64 = 0.0;
+            for t in 0..m.triangle_count() {
+                let [a, b, c] = m.indices[t].map(|i| i as usize);
+                let cu = (m.uvs[a] + m.uvs[b] + m.uvs[c]) / 3.0;
+                let cx = (m.positions[a] + m.positions[b] + m.positions[c]) / 3.0;
+                worst = worst.max((prim.eval(cu) - cx).length());
+            }
+            assert!(
+                worst <= tol * diag,
+                "tol {tol}: worst deviation {worst} > {}",
+                tol * diag
+            );
+            assert!(m.triangle_count() > count);
+            count = m.triangle_count();
+        }
+    }
 }
