@@ -867,6 +867,7 @@ fn adaptive_cells(
     max_edge: Option<f64>,
     depth: u32,
     limit: usize,
+    keep: &dyn Fn(DVec2, DVec2) -> bool,
 ) -> Result<(Vec<Cell>, u64), TessellationError> {
     const BASE: u64 = 4;
     let res = BASE << depth;
@@ -882,6 +883,9 @@ fn adaptive_cells(
     while let Some((i, j, sz)) = stack.pop() {
         let u0 = DVec2::new(i as f64 * unit, j as f64 * unit);
         let w = sz as f64 * unit;
+        if !keep(u0, u0 + DVec2::splat(w)) {
+            continue;
+        }
         let c = [
             s.pos(u0),
             s.pos(u0 + DVec2::new(w, 0.0)),
@@ -915,6 +919,60 @@ fn adaptive_cells(
     }
     leaves.sort_unstable();
     Ok((leaves, res))
+}
+
+/// Predicate "the cell `[lo, hi]` may meet the region bounded by the closed polylines
+/// `loops`": its centre is inside, or a boundary chord meets the cell (always true
+/// without a trim).
+fn cell_filter(
+    loops: &[Vec<DVec2>],
+    trimmed: bool,
+) -> Result<impl Fn(DVec2, DVec2) -> bool + use<>, TessellationError> {
+    let tl: Vec<TrimLoop> = loops
+        .iter()
+        .filter(|l| l.len() >= 3)
+        .map(|l| TrimLoop::polygon(l))
+        .collect::<Result<_, _>>()?;
+    let region = if trimmed && !tl.is_empty() {
+        Some(TrimRegion::new(tl)?)
+    } else {
+        None
+    };
+    let segs: Vec<(DVec2, DVec2)> = loops
+        .iter()
+        .flat_map(|l| (0..l.len()).map(move |k| (l[k], l[(k + 1) % l.len()])))
+        .collect();
+    Ok(move |lo: DVec2, hi: DVec2| match &region {
+        None => true,
+        Some(r) => {
+            r.winding(0.5 * (lo + hi)) != 0
+                || segs.iter().any(|&(a, b)| segment_meets_box(a, b, lo, hi))
+        }
+    })
+}
+
+/// Liang–Barsky: does the segment `a→b` meet the closed box `[lo, hi]`?
+fn segment_meets_box(a: DVec2, b: DVec2, lo: DVec2, hi: DVec2) -> bool {
+    let d = b - a;
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for k in 0..2 {
+        if d[k] == 0.0 {
+            if a[k] < lo[k] || a[k] > hi[k] {
+                return false;
+            }
+        } else {
+            let (mut ta, mut tb) = ((lo[k] - a[k]) / d[k], (hi[k] - a[k]) / d[k]);
+            if ta > tb {
+                std::mem::swap(&mut ta, &mut tb);
+            }
+            t0 = t0.max(ta);
+            t1 = t1.min(tb);
+            if t0 > t1 {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 /// Splits a boundary chord `a→b` (parameter space) by halving until its 3-D image
@@ -1022,8 +1080,14 @@ fn tessellate_surface(
             &square
         }
     };
-    // Parameter-space flattening of the trim (sagitta ≤ chord_tolerance).
-    let (cands, maxp): (Vec<(DVec2, f64)>, f64) = match opts.grid {
+    // Parameter-space flattening of the trim (sagitta ≤ chord_tolerance, chords no
+    // longer than the grid spacing).
+    let maxp = match opts.grid {
+        Grid::Uniform(n) => 1.0 / n as f64,
+        Grid::Adaptive => 0.25,
+    };
+    let coarse = flatten_region(region, opts.chord_tolerance, maxp, limit)?;
+    let cands: Vec<(DVec2, f64)> = match opts.grid {
         Grid::Uniform(n) => {
             if (n + 1) * (n + 1) > limit {
                 return Err(TessellationError::TooLarge(limit));
@@ -1035,10 +1099,13 @@ fn tessellate_surface(
                     c.push((DVec2::new(i as f64 * h, j as f64 * h), 0.3 * h));
                 }
             }
-            (c, h)
+            c
         }
         Grid::Adaptive => {
-            let (leaves, res) = adaptive_cells(s, tol3, opts.max_edge, opts.max_depth, limit)?;
+            // Cells entirely outside the (flattened) trim are dropped unrefined.
+            let keep = cell_filter(&coarse, trim.is_some())?;
+            let (leaves, res) =
+                adaptive_cells(s, tol3, opts.max_edge, opts.max_depth, limit, &keep)?;
             // Corner points with the smallest adjacent cell size.
             let mut corners: HashMap<(u64, u64), u64> = HashMap::new();
             for &(i, j, sz) in &leaves {
@@ -1059,10 +1126,9 @@ fn tessellate_surface(
                     )
                 })
                 .collect();
-            (c, 0.25)
+            c
         }
     };
-    let coarse = flatten_region(region, opts.chord_tolerance, maxp, limit)?;
     // Boundary chords refined against the surface.
     let max3 = match opts.grid {
         Grid::Adaptive => opts.max_edge.unwrap_or(f64::INFINITY),

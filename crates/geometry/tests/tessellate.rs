@@ -635,3 +635,26 @@ fn adaptive_meets_chordal_tolerance() {
         }
     }
 }
+
+/// Adaptive quadtree cells outside a small trim are dropped: a trim covering ~3% of the
+/// parameter square costs far fewer vertices than the untrimmed patch, and the area of
+/// the trimmed mesh still matches `Primitive::area`.
+#[test]
+fn adaptive_drops_cells_outside_trim() {
+    let small =
+        TrimRegion::new(vec![TrimLoop::circle(DVec2::new(0.3, 0.6), 0.1).unwrap()]).unwrap();
+    let full = sphere_patch(None, true);
+    let part = sphere_patch(Some(small), true);
+    let o = TessellationOptions::adaptive(1e-4);
+    let mf = tessellate(&Primitive::from(full), &o).unwrap();
+    let mp = tessellate(&Primitive::from(part.clone()), &o).unwrap();
+    patch_checks(&part, &mp, 1e-4 * (1.0 + 1e-9));
+    assert!(
+        mp.vertex_count() * 5 < mf.vertex_count(),
+        "{} vs {}",
+        mp.vertex_count(),
+        mf.vertex_count()
+    );
+    let exact = part.area();
+    assert!((mp.area() - exact).abs() / exact < 2e-3);
+}
