@@ -1117,16 +1117,14 @@ fn tessellate_surface(
             let mut keys: Vec<_> = corners.into_iter().collect();
             keys.sort_unstable();
             let unit = 1.0 / res as f64;
-            let c = keys
-                .into_iter()
+            keys.into_iter()
                 .map(|((a, b), sz)| {
                     (
                         DVec2::new(a as f64 * unit, b as f64 * unit),
                         0.3 * sz as f64 * unit,
                     )
                 })
-                .collect();
-            c
+                .collect()
         }
     };
     // Boundary chords refined against the surface.
