@@ -257,8 +257,9 @@ pub struct TessellationOptions {
     pub chord_tolerance: f64,
     /// Optional longest edge in world units. Enforced on boundary chords exactly; in the
     /// interior of polygons by spade refinement with the area bound `(√3/4)·max_edge²`;
-    /// on adaptive curved patches by splitting cells with a longer 3-D side. Ignored by
-    /// `Uniform` grids of curved patches (the grid is as requested).
+    /// on adaptive curved patches by splitting cells with a longer 3-D side; `Uniform(n)`
+    /// grids of curved patches raise `n` to `⌈max |∂x| / max_edge⌉` (sampled speed), so
+    /// grid edges are at most about `max_edge` (a sampled, not a strict, bound).
     pub max_edge: Option<f64>,
     /// Sampling of the support.
     pub grid: Grid,
@@ -1018,6 +1019,28 @@ fn orientation_sign(s: Surf<'_>) -> f64 {
     if acc < 0.0 { -1.0 } else { 1.0 }
 }
 
+/// Largest `max(|∂u x|, |∂v x|)` over a 17 × 17 sample of the square (central
+/// differences, step 1e-6): the 3-D length of a grid edge of parameter length `h` is
+/// about `h` times this.
+fn max_speed(s: Surf<'_>) -> f64 {
+    let h = 1e-6;
+    let mut m: f64 = 0.0;
+    for j in 0..=16 {
+        for i in 0..=16 {
+            let uv = DVec2::new(i as f64, j as f64) / 16.0;
+            let cl = |q: DVec2| q.clamp(DVec2::ZERO, DVec2::ONE);
+            let (du0, du1) = (cl(uv - DVec2::X * h), cl(uv + DVec2::X * h));
+            let (dv0, dv1) = (cl(uv - DVec2::Y * h), cl(uv + DVec2::Y * h));
+            let su = (s.pos(du1) - s.pos(du0)).length() / (du1.x - du0.x);
+            let sv = (s.pos(dv1) - s.pos(dv0)).length() / (dv1.y - dv0.y);
+            if su.is_finite() && sv.is_finite() {
+                m = m.max(su).max(sv);
+            }
+        }
+    }
+    m
+}
+
 /// Structured `n × n` grid over the whole parameter square (two triangles per cell).
 fn surface_grid(s: Surf<'_>, n: usize) -> Result<TriangleMesh, TessellationError> {
     let mut m = TriangleMesh::default();
@@ -1066,6 +1089,17 @@ fn tessellate_surface(
     }
     let tol3 = opts.chord_tolerance * diag;
     let limit = opts.max_vertices;
+    let mut opts = *opts;
+    if let (Grid::Uniform(n), Some(e)) = (opts.grid, opts.max_edge) {
+        // Raise n until the longest sampled grid edge is at most max_edge.
+        let speed = max_speed(s);
+        let need = (speed / e).ceil();
+        if need.is_nan() || need > 4096.0 {
+            return Err(TessellationError::TooLarge(limit));
+        }
+        opts.grid = Grid::Uniform(n.max(need as usize));
+    }
+    let opts = &opts;
     if let (None, Grid::Uniform(n)) = (trim, opts.grid) {
         if (n + 1) * (n + 1) > limit {
             return Err(TessellationError::TooLarge(limit));

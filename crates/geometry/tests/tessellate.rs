@@ -658,3 +658,27 @@ fn adaptive_drops_cells_outside_trim() {
     let exact = part.area();
     assert!((mp.area() - exact).abs() / exact < 2e-3);
 }
+
+/// `max_edge` raises the resolution of uniform grids on curved patches: grid edges along
+/// `u` and `v` are at most ≈ `max_edge`, cell diagonals at most ≈ √2 · `max_edge`.
+#[test]
+fn uniform_curved_respects_max_edge() {
+    let prim = Primitive::from(bezier());
+    for e in [0.3, 0.1, 0.05] {
+        let o = TessellationOptions {
+            max_edge: Some(e),
+            ..TessellationOptions::uniform(2)
+        };
+        let m = tessellate(&prim, &o).unwrap();
+        let longest = m
+            .edge_counts()
+            .keys()
+            .map(|&(a, b)| (m.positions[a as usize] - m.positions[b as usize]).length())
+            .fold(0.0, f64::max);
+        assert!(longest <= 1.5 * e, "max_edge {e}: longest edge {longest}");
+        assert!(
+            longest >= 0.5 * e,
+            "max_edge {e}: over-refined, longest edge {longest}"
+        );
+    }
+}
