@@ -46,6 +46,29 @@ pub trait RadiosityField: Sync {
     fn emission(&self, p: &SurfacePoint) -> [f64; 3];
     /// Diffuse reflectance `ρ` of the lit side.
     fn reflectance(&self, p: &SurfacePoint) -> [f64; 3];
+    /// A point drawn uniformly by area over all emitting sides from `u ∈ [0,1)³`, for
+    /// next-event estimation: `(point, unit normal of the emitting side, E, total
+    /// emitting area, primitive id)`. `None` (the default) if the field cannot sample
+    /// its emitters; the final gather then finds emitters by its own rays only.
+    fn sample_emitter(&self, _u: [f64; 3]) -> Option<EmitterSample> {
+        None
+    }
+}
+
+/// A point on an emitter drawn uniformly by area (see
+/// [`RadiosityField::sample_emitter`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EmitterSample {
+    /// Position.
+    pub point: DVec3,
+    /// Unit normal of the emitting side.
+    pub normal: DVec3,
+    /// Emitted exitance (W/m²).
+    pub emission: [f64; 3],
+    /// Total area of all emitting sides (the pdf is its inverse).
+    pub total_area: f64,
+    /// Primitive id in the field's accelerator.
+    pub prim: u32,
 }
 
 /// A `wavelux_solver::Solution` as a [`RadiosityField`].
@@ -57,6 +80,8 @@ pub struct SolutionField<'a> {
     /// `[front patch, back patch]` per primitive (support piece).
     sides: Vec<[Option<usize>; 2]>,
     pieces: Vec<SupportMap>,
+    /// Emitting patches and the cumulative area.
+    emitters: (Vec<usize>, Vec<f64>),
 }
 
 fn geo(e: wavelux_geometry::GeometryError) -> RenderError {
@@ -193,11 +218,21 @@ impl<'a> SolutionField<'a> {
             .map(support_primitive)
             .collect::<Result<Vec<_>, _>>()?;
         let accel = Accel::build(prims).map_err(geo)?;
+        let mut emitters = (Vec::new(), Vec::new());
+        let mut tot = 0.0;
+        for (i, p) in solution.patches.iter().enumerate() {
+            if p.emission.iter().any(|&e| e > 0.0) {
+                tot += p.support.area;
+                emitters.0.push(i);
+                emitters.1.push(tot);
+            }
+        }
         Ok(Self {
             solution,
             accel,
             sides,
             pieces,
+            emitters,
         })
     }
 }
@@ -232,6 +267,22 @@ impl RadiosityField for SolutionField<'_> {
 
     fn reflectance(&self, p: &SurfacePoint) -> [f64; 3] {
         self.solution.patches[p.side_index].reflectance
+    }
+
+    fn sample_emitter(&self, u: [f64; 3]) -> Option<EmitterSample> {
+        let (ids, cdf) = &self.emitters;
+        let tot = *cdf.last()?;
+        let x = u[0] * tot;
+        let j = cdf.partition_point(|&c| c <= x).min(ids.len() - 1);
+        let p = &self.solution.patches[ids[j]];
+        // Every support map is equal-area, so uniform (s, t) is uniform by area.
+        Some(EmitterSample {
+            point: p.support.point(u[1], u[2]),
+            normal: p.support.normal,
+            emission: p.emission,
+            total_area: tot,
+            prim: p.prim,
+        })
     }
 }
 

@@ -64,8 +64,8 @@ pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<(), RenderError> 
 pub enum ToneMap {
     /// Multiply by a fixed exposure, clamp to `[0, 1]`, sRGB-encode.
     Exposure(f64),
-    /// Choose the exposure that maps the 97th percentile of the luminance of non-black
-    /// pixels to 0.9, then as [`ToneMap::Exposure`] (light sources saturate).
+    /// Choose the exposure that maps the 95th percentile of the luminance of non-black
+    /// pixels to 0.75, then as [`ToneMap::Exposure`] (light sources saturate).
     Auto,
 }
 
@@ -205,8 +205,8 @@ impl Image {
             return 1.0;
         }
         l.sort_by(f64::total_cmp);
-        let v = l[((l.len() - 1) as f64 * 0.97) as usize];
-        0.9 / v
+        let v = l[((l.len() - 1) as f64 * 0.95) as usize];
+        0.75 / v
     }
 
     /// 8-bit sRGB bytes (RGB, row-major) after tone mapping.

@@ -31,7 +31,7 @@ pub mod render;
 mod sampling;
 
 pub use camera::View;
-pub use field::{RadiosityField, SolutionField, SurfacePoint};
+pub use field::{EmitterSample, RadiosityField, SolutionField, SurfacePoint};
 pub use image::{ErrorMetrics, Image, ToneMap, write_atomic};
 pub use reference::{PathTracer, ReferenceOptions, SurfaceEstimate};
 pub use render::{RenderOptions, RenderStats, render};

@@ -7,7 +7,10 @@
 //! `B(y)` at the hit `y`), `B(y)` estimated recursively, and Russian roulette after
 //! `rr_depth` bounces with survival probability `min(0.95, max_c throughput_c)`
 //! (unbiased: survivors are divided by it). Rays that escape or hit the back of a
-//! one-sided surface (a black occluder) contribute nothing.
+//! one-sided surface (a black occluder) contribute nothing. When every emitter is
+//! planar, emitted light is gathered by next-event estimation (one shadow ray per
+//! vertex to a point drawn uniformly by area over all emitting sides) and the walk
+//! itself collects only reflected light, which cuts the variance for small lights.
 //!
 //! - Per-surface averages: points uniform by area on the surface's front side (the
 //!   quantity `wavelux_solver::Solution::surface_average` reports), one walk each; the
@@ -78,6 +81,12 @@ pub struct SurfaceEstimate {
     pub samples: u64,
 }
 
+/// An emitting side: primitive, back side?, exitance.
+type Light = (usize, bool, [f64; 3]);
+
+/// Running sums of a chunk of samples: `(Σ b, Σ b²)` per channel.
+type Sums = ([f64; 3], [f64; 3]);
+
 /// The path tracer over a scene's exact geometry.
 #[derive(Debug)]
 pub struct PathTracer {
@@ -86,6 +95,9 @@ pub struct PathTracer {
     sides: Vec<[Option<SideMat>; 2]>,
     surface_prims: Vec<Vec<usize>>,
     eps: f64,
+    /// Emitting sides for next-event estimation: (primitive, back side?, E), with the
+    /// cumulative area; `None` when some emitter cannot be area-sampled.
+    lights: Option<(Vec<Light>, Vec<f64>)>,
 }
 
 fn side_mat(scene: &Scene, id: usize, name: &str) -> Result<SideMat, RenderError> {
@@ -166,6 +178,29 @@ impl PathTracer {
             prim_surface.push(s);
             list.push(p);
         }
+        let mut lights = Some((Vec::new(), Vec::new()));
+        let mut tot = 0.0;
+        for (k, p) in list.iter().enumerate() {
+            for back in [false, true] {
+                let Some(m) = sides[prim_surface[k]][usize::from(back)] else {
+                    continue;
+                };
+                if max3(m.e) <= 0.0 {
+                    continue;
+                }
+                if !matches!(
+                    p,
+                    Primitive::Triangle(_) | Primitive::Parallelogram(_) | Primitive::Polygon(_)
+                ) {
+                    lights = None;
+                }
+                if let Some((l, cdf)) = &mut lights {
+                    tot += p.area();
+                    l.push((k, back, m.e));
+                    cdf.push(tot);
+                }
+            }
+        }
         let accel = Accel::build(list).map_err(|e| RenderError::Scene(e.to_string()))?;
         let diag = accel.bounds().diagonal().length();
         Ok(Self {
@@ -174,6 +209,7 @@ impl PathTracer {
             sides,
             surface_prims,
             eps: SECONDARY_EPS_REL * diag,
+            lights,
         })
     }
 
@@ -194,12 +230,31 @@ impl PathTracer {
     }
 
     /// One-sample estimate of the irradiance `H(x)` (W/m²) at `x` on the side with
-    /// unit normal `n`: the random walk described in the module docs.
-    fn irradiance(&self, x: DVec3, n: DVec3, opts: &ReferenceOptions, rng: &mut Pcg64) -> [f64; 3] {
+    /// unit normal `n` (`prim`: the primitive `x` lies on, skipped by shadow rays).
+    ///
+    /// With next-event estimation (every emitter planar): at each vertex the emitted
+    /// part `∫ E(y)/π cos θ_x cos θ_y V / r² dA_y` is estimated from one point drawn
+    /// uniformly by area over all emitting sides, and the walk continues with
+    /// cosine-distributed directions collecting only reflected light (emission found
+    /// by the walk is not added, so nothing is counted twice). Without it, emission is
+    /// collected where the walk hits it.
+    fn irradiance(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        prim: Option<u32>,
+        opts: &ReferenceOptions,
+        rng: &mut Pcg64,
+    ) -> [f64; 3] {
         let mut out = [0.0; 3];
         let mut thr = [1.0; 3];
-        let (mut o, mut nn) = (x, n);
+        let (mut o, mut nn, mut pid) = (x, n, prim);
         for depth in 0..opts.max_depth {
+            if let Some(d) = self.direct(o, nn, pid, rng) {
+                for c in 0..3 {
+                    out[c] += thr[c] * d[c];
+                }
+            }
             let d = cosine_dir(nn, rng.random(), rng.random());
             let ray = Ray {
                 origin: o + nn * self.eps,
@@ -212,7 +267,9 @@ impl PathTracer {
                 break;
             };
             for c in 0..3 {
-                out[c] += thr[c] * m.e[c];
+                if self.lights.is_none() {
+                    out[c] += thr[c] * m.e[c];
+                }
                 thr[c] *= m.rho[c];
             }
             if depth + 1 >= opts.rr_depth {
@@ -226,8 +283,36 @@ impl PathTracer {
             }
             o = hit.point;
             nn = hn;
+            pid = Some(hit.prim);
         }
         out
+    }
+
+    /// Light-sampling estimate of the emitted irradiance at `x` (None without NEE).
+    fn direct(&self, x: DVec3, n: DVec3, prim: Option<u32>, rng: &mut Pcg64) -> Option<[f64; 3]> {
+        let (lights, cdf) = self.lights.as_ref()?;
+        let tot = *cdf.last()?;
+        let u = rng.random::<f64>() * tot;
+        let j = cdf.partition_point(|&c| c <= u).min(lights.len() - 1);
+        let (k, back, e) = lights[j];
+        let (y, ny) = Self::sample_prim(&self.accel.primitives()[k], rng).ok()?;
+        let ny = if back { -ny } else { ny };
+        let d = y - x;
+        let r2 = d.length_squared();
+        if r2 <= 0.0 {
+            return Some([0.0; 3]);
+        }
+        let r = r2.sqrt();
+        let cx = n.dot(d) / r;
+        let cy = -ny.dot(d) / r;
+        if cx <= 0.0 || cy <= 0.0 {
+            return Some([0.0; 3]);
+        }
+        if self.accel.occluded(x, y, [prim, Some(k as u32)]) {
+            return Some([0.0; 3]);
+        }
+        let g = cx * cy * tot / (std::f64::consts::PI * r2);
+        Some(e.map(|v| v * g))
     }
 
     /// One-sample estimate of `B(x) = E + ρ·H(x)` on a side.
@@ -235,6 +320,7 @@ impl PathTracer {
         &self,
         x: DVec3,
         n: DVec3,
+        prim: Option<u32>,
         m: SideMat,
         opts: &ReferenceOptions,
         rng: &mut Pcg64,
@@ -242,7 +328,7 @@ impl PathTracer {
         if max3(m.rho) <= 0.0 {
             return m.e;
         }
-        let h = self.irradiance(x, n, opts, rng);
+        let h = self.irradiance(x, n, prim, opts, rng);
         std::array::from_fn(|c| m.e[c] + m.rho[c] * h[c])
     }
 
@@ -320,7 +406,7 @@ impl PathTracer {
         }
         const CHUNK: u64 = 1024;
         let chunks = samples.div_ceil(CHUNK);
-        let sums: Vec<Result<([f64; 3], [f64; 3]), RenderError>> = (0..chunks)
+        let sums: Vec<Result<Sums, RenderError>> = (0..chunks)
             .into_par_iter()
             .map(|ch| {
                 let mut s = [0.0; 3];
@@ -330,7 +416,8 @@ impl PathTracer {
                     let u = rng.random::<f64>() * tot;
                     let j = cdf.partition_point(|&c| c <= u).min(prims.len() - 1);
                     let (x, n) = Self::sample_prim(&all[prims[j]], &mut rng)?;
-                    let b = self.radiosity_sample(x, n, front, opts, &mut rng);
+                    let pid = Some(prims[j] as u32);
+                    let b = self.radiosity_sample(x, n, pid, front, opts, &mut rng);
                     for c in 0..3 {
                         s[c] += b[c];
                         s2[c] += b[c] * b[c];
@@ -398,7 +485,7 @@ impl PathTracer {
             .fold(0u64, |a, v| a ^ v.to_bits().rotate_left(17));
         for i in 0..paths {
             let mut rng = rng_for(opts.seed ^ key, surface as u64, i);
-            let b = self.radiosity_sample(x, n, m, opts, &mut rng);
+            let b = self.radiosity_sample(x, n, None, m, opts, &mut rng);
             for c in 0..3 {
                 s[c] += b[c];
                 s2[c] += b[c] * b[c];
@@ -441,7 +528,14 @@ impl PathTracer {
                             let Some((_, m, n)) = self.side_of(&hit) else {
                                 continue;
                             };
-                            let b = self.radiosity_sample(hit.point, n, m, opts, &mut rng);
+                            let b = self.radiosity_sample(
+                                hit.point,
+                                n,
+                                Some(hit.prim),
+                                m,
+                                opts,
+                                &mut rng,
+                            );
                             for c in 0..3 {
                                 acc[c] += b[c];
                             }

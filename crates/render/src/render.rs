@@ -5,7 +5,11 @@
 //! gather of `g` rays the radiosity at `x` is re-estimated from the solution one
 //! bounce away, `B(x) ≈ E(x) + ρ(x)·(1/g) Σ_k B(y_k)`, with `y_k` the hits of
 //! cosine-distributed rays from `x` (pdf `cos θ/π`, so the irradiance estimator is the
-//! plain mean of the `B(y_k)`). This replaces the element-wise (blocky) radiosity by a
+//! plain mean of the `B(y_k)`). When the field can sample its emitters
+//! ([`RadiosityField::sample_emitter`]), the emitted part of the irradiance is
+//! estimated by light sampling instead (one shadow ray per gather ray) and the gather
+//! rays collect only the reflected part `B − E`: direct shadows then come from exact
+//! visibility per pixel, not from the solution's elements. This replaces the element-wise (blocky) radiosity by a
 //! per-pixel integral of it, which sharpens shadows and hides element boundaries
 //! (Glossy §5.5 uses the same one-bounce gather for its glossy final pass).
 //!
@@ -76,6 +80,49 @@ pub(crate) fn radiosity_along<F: RadiosityField + ?Sized>(
     }
 }
 
+/// Like [`radiosity_along`] but only the reflected part `B − E` at the hit.
+pub(crate) fn reflected_along<F: RadiosityField + ?Sized>(
+    field: &F,
+    origin: DVec3,
+    dir: DVec3,
+    eps: f64,
+) -> [f64; 3] {
+    let ray = Ray { origin, dir };
+    match field.accel().closest_hit(&ray, eps, f64::INFINITY) {
+        Some(h) => field.resolve(&h).map_or([0.0; 3], |p| {
+            let b = field.radiosity(&p);
+            let e = field.emission(&p);
+            std::array::from_fn(|c| b[c] - e[c])
+        }),
+        None => [0.0; 3],
+    }
+}
+
+/// One-sample light-sampling estimate of the emitted irradiance at `x` (normal `n`):
+/// `E cos θ_x cos θ_y A / (π r²)` if the drawn emitter point is visible.
+pub(crate) fn direct_light<F: RadiosityField + ?Sized>(
+    field: &F,
+    x: DVec3,
+    n: DVec3,
+    u: [f64; 3],
+) -> [f64; 3] {
+    let Some(s) = field.sample_emitter(u) else {
+        return [0.0; 3];
+    };
+    let d = s.point - x;
+    let r2 = d.length_squared();
+    if r2 <= 0.0 {
+        return [0.0; 3];
+    }
+    let r = r2.sqrt();
+    let (cx, cy) = (n.dot(d) / r, -s.normal.dot(d) / r);
+    if cx <= 0.0 || cy <= 0.0 || field.accel().occluded(x, s.point, [None, Some(s.prim)]) {
+        return [0.0; 3];
+    }
+    let g = cx * cy * s.total_area / (std::f64::consts::PI * r2);
+    s.emission.map(|e| e * g)
+}
+
 /// Renders `view` of `field`; `progress` is called with the number of rows finished
 /// (once per row, from worker threads).
 ///
@@ -127,14 +174,29 @@ pub fn render<F: RadiosityField + ?Sized>(
                             let mut irr = [0.0; 3];
                             if rho.iter().any(|&r| r > 0.0) {
                                 let o = p.point + p.normal * eps;
+                                let nee = field.sample_emitter([0.5; 3]).is_some();
                                 for _ in 0..opts.gather {
                                     let d = cosine_dir(p.normal, rng.random(), rng.random());
-                                    let bb = radiosity_along(field, o, d, eps);
+                                    let bb = if nee {
+                                        reflected_along(field, o, d, eps)
+                                    } else {
+                                        radiosity_along(field, o, d, eps)
+                                    };
+                                    let direct = if nee {
+                                        direct_light(
+                                            field,
+                                            p.point,
+                                            p.normal,
+                                            [rng.random(), rng.random(), rng.random()],
+                                        )
+                                    } else {
+                                        [0.0; 3]
+                                    };
                                     for c in 0..3 {
-                                        irr[c] += bb[c];
+                                        irr[c] += bb[c] + direct[c];
                                     }
                                 }
-                                g_count += opts.gather as u64;
+                                g_count += opts.gather as u64 * if nee { 2 } else { 1 };
                             }
                             let g = opts.gather as f64;
                             std::array::from_fn(|c| e[c] + rho[c] * irr[c] / g)

@@ -1,40 +1,40 @@
-//! The `wavelux` command.
+//! The `wavelux` command: solve and render scenes, list the built-ins, compare results.
 //!
-//! Until the solver and renderer land, the command reports only what is real: its
-//! version and the crates it is built from. Reproductions of the papers run through
-//! `cargo xtask reproduce-figures`.
+//! `wavelux` with no arguments solves and renders the built-in Cornell box with the
+//! default settings and writes `out/cornell.{exr,png,json}`. See `docs/cli.md` for every
+//! option and the JSON schema.
 
-use clap::{Parser, Subcommand};
+mod cli;
+mod compare;
+mod pipeline;
+mod progress;
+mod report;
 
-/// Hierarchical and wavelet global illumination.
-#[derive(Parser)]
-#[command(name = "wavelux", version, about)]
-struct Cli {
-    #[command(subcommand)]
-    command: Option<Command>,
-}
+use clap::Parser;
 
-#[derive(Subcommand)]
-enum Command {
-    /// List the crates this build of wavelux is made of.
-    Crates,
-}
+use crate::cli::{Cli, Command, SolveOnly};
 
-fn main() -> anyhow::Result<()> {
+fn main() {
     let cli = Cli::parse();
-    match cli.command {
-        Some(Command::Crates) | None => {
+    let r = match cli.command {
+        None => pipeline::run(&SolveOnly::parse_from(["wavelux"]).args, None),
+        Some(Command::Solve(a)) => pipeline::run(&a, None),
+        Some(Command::Render(r)) => pipeline::run(&r.solve, Some(&r.camera)),
+        Some(Command::Scenes) => {
+            pipeline::list_scenes();
+            Ok(())
+        }
+        Some(Command::Compare(c)) => compare::run(&c),
+        Some(Command::Crates) => {
             println!("wavelux {}", env!("CARGO_PKG_VERSION"));
             for (name, job) in wavelux::CRATES {
                 println!("  {name:<20} {job}");
             }
-            if cli.command.is_none() {
-                println!(
-                    "\nThe solver and renderer are not built yet; `cargo xtask reproduce-figures` \
-                     regenerates the papers' tables and figures."
-                );
-            }
+            Ok(())
         }
+    };
+    if let Err(e) = r {
+        eprintln!("wavelux: error: {e:#}");
+        std::process::exit(1);
     }
-    Ok(())
 }

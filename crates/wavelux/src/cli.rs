@@ -1,0 +1,228 @@
+//! Command-line arguments (clap).
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Hierarchical and wavelet global illumination.
+///
+/// With no command: solve and render the built-in Cornell box with good defaults and
+/// write out/cornell.exr, out/cornell.png and out/cornell.json.
+#[derive(Parser)]
+#[command(name = "wavelux", version, about)]
+pub struct Cli {
+    /// What to do (default: `solve builtin:cornell-box`).
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+/// Used to get the defaults of `solve` when no command is given.
+#[derive(Parser)]
+pub struct SolveOnly {
+    /// The arguments.
+    #[command(flatten)]
+    pub args: SolveArgs,
+}
+
+/// The commands.
+#[derive(Subcommand)]
+pub enum Command {
+    /// Solve a scene, write its JSON result and an image from the scene's camera.
+    Solve(SolveArgs),
+    /// Like `solve`, with the camera chosen by name or given by flags.
+    Render(RenderArgs),
+    /// List the built-in scenes.
+    Scenes,
+    /// Error metrics between two results (JSON) or two images (EXR/PNG).
+    Compare(CompareArgs),
+    /// List the crates this build is made of.
+    Crates,
+}
+
+/// Global illumination method.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MethodArg {
+    /// Wavelet radiosity with links (gathering; Ziegler ch. 2-4).
+    Gather,
+    /// Linkless shooting on the Virtual Mesh (not available yet).
+    Shoot,
+    /// The Monte Carlo path tracer (reference / ground truth).
+    Reference,
+}
+
+/// Basis of the wavelet solver.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BasisArg {
+    /// Piecewise constants.
+    Haar,
+    /// Alpert multiwavelets, 2 functions per cell and axis.
+    M2,
+    /// Alpert multiwavelets, 3 functions per cell and axis.
+    M3,
+    /// Cohen-Daubechies-Vial D4 on the interval.
+    Cdv,
+}
+
+/// Linear solver.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SolverArg {
+    /// Picard (Jacobi) iteration.
+    Picard,
+    /// Alias of picard.
+    Jacobi,
+    /// Hierarchical Gauss-Seidel.
+    GaussSeidel,
+    /// Southwell relaxation (not available in the wavelet solver yet).
+    Southwell,
+    /// Restarted GMRES(30).
+    Gmres,
+    /// CG on the normal equations.
+    Cgnr,
+}
+
+/// Visibility in transfer blocks.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum VisibilityArg {
+    /// One shadow ray per quadrature sample pair.
+    Quadrature,
+    /// Unoccluded block times a 4x4-ray visible fraction.
+    Fractional,
+    /// No visibility (every pair mutually visible; for testing).
+    Off,
+}
+
+/// Refinement oracle.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OracleArg {
+    /// Kernel smoothness (eps dimensionless).
+    Kernel,
+    /// Kernel smoothness times brightness (eps in W/m2).
+    Brightness,
+}
+
+/// Options of `solve` (and `render`).
+#[derive(Args, Clone, Debug)]
+pub struct SolveArgs {
+    /// Scene: a glTF file (.gltf/.glb), a native file (.toml) or builtin:NAME.
+    #[arg(default_value = "builtin:cornell-box")]
+    pub scene: String,
+    /// Global illumination method.
+    #[arg(long, value_enum, default_value_t = MethodArg::Gather)]
+    pub method: MethodArg,
+    /// Wavelet basis.
+    #[arg(long, value_enum, default_value_t = BasisArg::Haar)]
+    pub basis: BasisArg,
+    /// Refinement threshold (see --oracle for its unit).
+    #[arg(long, default_value_t = 2e-2)]
+    pub eps: f64,
+    /// Deepest element level (0..=20).
+    #[arg(long, default_value_t = 4)]
+    pub max_level: u8,
+    /// Smallest element area (scene units squared).
+    #[arg(long, default_value_t = 0.0)]
+    pub min_area: f64,
+    /// Refinement oracle.
+    #[arg(long, value_enum, default_value_t = OracleArg::Kernel)]
+    pub oracle: OracleArg,
+    /// Linear solver.
+    #[arg(long, value_enum, default_value_t = SolverArg::Gmres)]
+    pub solver: SolverArg,
+    /// Maximum iterations (sweeps) per channel.
+    #[arg(long, default_value_t = 100)]
+    pub max_iterations: usize,
+    /// Relative residual tolerance of the linear solve.
+    #[arg(long, default_value_t = 1e-6)]
+    pub tolerance: f64,
+    /// Visibility in transfer blocks.
+    #[arg(long, value_enum, default_value_t = VisibilityArg::Quadrature)]
+    pub visibility: VisibilityArg,
+    /// Gauss points per axis of the transfer quadrature (1..=16).
+    #[arg(long = "quad", default_value_t = 3)]
+    pub quad: usize,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Seed of every random choice (image jitter, final gather, Monte Carlo).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Output directory of the image and JSON files.
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+    /// Path of the JSON result (default: OUT/NAME.json).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Print nothing but errors.
+    #[arg(long, short)]
+    pub quiet: bool,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 512)]
+    pub width: usize,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 512)]
+    pub height: usize,
+    /// Samples per pixel along each axis (spp x spp per pixel).
+    #[arg(long, default_value_t = 2)]
+    pub spp: usize,
+    /// Final-gather rays per pixel sample (0: show the solution directly).
+    #[arg(long, default_value_t = 8)]
+    pub gather: usize,
+    /// Write no image (JSON only).
+    #[arg(long)]
+    pub no_image: bool,
+    /// Monte Carlo samples per surface for the error estimate (0: skip the estimate).
+    /// With --method reference: samples per surface of the reference itself.
+    #[arg(long, default_value_t = 16384)]
+    pub samples: u64,
+}
+
+/// Camera options of `render`.
+#[derive(Args, Clone, Debug)]
+pub struct CameraArgs {
+    /// Use the scene camera with this name (default: the first one).
+    #[arg(long, conflicts_with_all = ["eye", "target"])]
+    pub camera: Option<String>,
+    /// Eye position x,y,z (explicit look-at camera; needs --target).
+    #[arg(long, value_delimiter = ',', num_args = 3, requires = "target")]
+    pub eye: Option<Vec<f64>>,
+    /// Look-at target x,y,z.
+    #[arg(long, value_delimiter = ',', num_args = 3, requires = "eye")]
+    pub target: Option<Vec<f64>>,
+    /// Up direction x,y,z of the look-at camera.
+    #[arg(long, value_delimiter = ',', num_args = 3, default_value = "0,1,0")]
+    pub up: Vec<f64>,
+    /// Vertical field of view of the look-at camera in degrees.
+    #[arg(long, default_value_t = 40.0)]
+    pub fov: f64,
+}
+
+/// Options of `render`.
+#[derive(Args, Clone, Debug)]
+pub struct RenderArgs {
+    /// Solve options.
+    #[command(flatten)]
+    pub solve: SolveArgs,
+    /// Camera options.
+    #[command(flatten)]
+    pub camera: CameraArgs,
+}
+
+/// Options of `compare`.
+#[derive(Args, Clone, Debug)]
+pub struct CompareArgs {
+    /// The result or image to judge.
+    pub a: PathBuf,
+    /// The reference result or image.
+    pub b: PathBuf,
+    /// Write a false-colour relative error map (PNG) of two images here.
+    #[arg(long)]
+    pub map: Option<PathBuf>,
+    /// Relative error shown at the top of the error map's colour ramp.
+    #[arg(long, default_value_t = 0.1)]
+    pub scale: f64,
+    /// Write the metrics as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Print nothing but errors.
+    #[arg(long, short)]
+    pub quiet: bool,
+}

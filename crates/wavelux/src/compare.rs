@@ -1,0 +1,171 @@
+//! `wavelux compare A B`: error metrics of A against the reference B, for two JSON
+//! results (per-surface radiosity, matched by name) or two images (EXR/PNG).
+
+use std::path::Path;
+
+use anyhow::{Context, bail};
+use serde::Serialize;
+use wavelux::render::{Image, ToneMap, image::write_bytes_atomic};
+
+use crate::cli::CompareArgs;
+use crate::report;
+
+/// Per-surface comparison.
+#[derive(Debug, Serialize)]
+struct SurfaceDiff {
+    name: String,
+    a: [f64; 3],
+    b: [f64; 3],
+    relative: f64,
+    /// |a − b| / standard error of b (max over channels), when b has errors.
+    z: Option<f64>,
+}
+
+/// Metrics of two results.
+#[derive(Debug, Serialize)]
+struct ResultMetrics {
+    kind: &'static str,
+    /// `Σ A |a − b|₁ / Σ A |b|₁` over the surfaces both have.
+    relative_l1: f64,
+    /// Largest per-surface relative difference `|a − b|₁ / |b|₁`.
+    max_relative: f64,
+    /// Largest |z| when the reference has standard errors.
+    max_z: Option<f64>,
+    surfaces: Vec<SurfaceDiff>,
+}
+
+#[derive(Debug, Serialize)]
+struct ImageMetrics {
+    kind: &'static str,
+    #[serde(flatten)]
+    metrics: wavelux::render::ErrorMetrics,
+}
+
+fn is_json(p: &Path) -> bool {
+    p.extension().and_then(|e| e.to_str()) == Some("json")
+}
+
+fn read_result(p: &Path) -> anyhow::Result<report::Result> {
+    let text = std::fs::read_to_string(p).with_context(|| format!("cannot read {p:?}"))?;
+    let r: report::Result =
+        serde_json::from_str(&text).with_context(|| format!("{p:?} is not a wavelux result"))?;
+    if r.schema != report::SCHEMA || r.version != report::VERSION {
+        bail!(
+            "{p:?}: schema {} version {} (expected {} version {})",
+            r.schema,
+            r.version,
+            report::SCHEMA,
+            report::VERSION
+        );
+    }
+    Ok(r)
+}
+
+/// Runs `compare`.
+pub fn run(c: &CompareArgs) -> anyhow::Result<()> {
+    let text = match (is_json(&c.a), is_json(&c.b)) {
+        (true, true) => {
+            if c.map.is_some() {
+                bail!("--map needs two images, not two JSON results");
+            }
+            let m = compare_results(&read_result(&c.a)?, &read_result(&c.b)?)?;
+            if !c.quiet {
+                println!(
+                    "surface-average radiosity: relative L1 {:.4}%, max per-surface {:.4}%{}",
+                    100.0 * m.relative_l1,
+                    100.0 * m.max_relative,
+                    m.max_z
+                        .map_or(String::new(), |z| format!(", max |z| {z:.2}"))
+                );
+                for s in &m.surfaces {
+                    println!(
+                        "  {:<28} {:>9.4}%{}",
+                        s.name,
+                        100.0 * s.relative,
+                        s.z.map_or(String::new(), |z| format!("  z {z:.2}"))
+                    );
+                }
+            }
+            serde_json::to_string_pretty(&m)?
+        }
+        (false, false) => {
+            let a = Image::read(&c.a)?;
+            let b = Image::read(&c.b)?;
+            let metrics = a.metrics(&b)?;
+            if let Some(map) = &c.map {
+                if !(c.scale.is_finite() && c.scale > 0.0) {
+                    bail!("--scale must be > 0");
+                }
+                a.error_map(&b, c.scale)?
+                    .write_png(map, ToneMap::Exposure(1.0))?;
+            }
+            if !c.quiet {
+                println!(
+                    "image: L1 {:.6e}, relative L1 {:.4}%, RMSE {:.6e}, max {:.6e} (reference mean {:.6e})",
+                    metrics.l1,
+                    100.0 * metrics.relative_l1,
+                    metrics.rmse,
+                    metrics.max_abs,
+                    metrics.reference_mean
+                );
+                if let Some(map) = &c.map {
+                    println!("wrote {}", map.display());
+                }
+            }
+            serde_json::to_string_pretty(&ImageMetrics {
+                kind: "image",
+                metrics,
+            })?
+        }
+        _ => bail!("compare two JSON results or two images, not one of each"),
+    };
+    if let Some(p) = &c.json {
+        write_bytes_atomic(p, text.as_bytes())?;
+    }
+    Ok(())
+}
+
+fn compare_results(a: &report::Result, b: &report::Result) -> anyhow::Result<ResultMetrics> {
+    let (mut num, mut den, mut max_rel) = (0.0, 0.0, 0.0f64);
+    let mut max_z: Option<f64> = None;
+    let mut surfaces = Vec::new();
+    for sb in &b.surfaces {
+        let Some(sa) = a.surfaces.iter().find(|s| s.name == sb.name) else {
+            continue;
+        };
+        let d: f64 = (0..3)
+            .map(|c| (sa.radiosity[c] - sb.radiosity[c]).abs())
+            .sum();
+        let n: f64 = sb.radiosity.iter().map(|v| v.abs()).sum();
+        num += sb.area * d;
+        den += sb.area * n;
+        let rel = if n > 0.0 { d / n } else { d };
+        max_rel = max_rel.max(rel);
+        let z = sb.std_error.map(|se| {
+            (0..3)
+                .filter(|&c| se[c] > 0.0)
+                .map(|c| (sa.radiosity[c] - sb.radiosity[c]).abs() / se[c])
+                .fold(0.0f64, f64::max)
+        });
+        if let Some(z) = z {
+            max_z = Some(max_z.unwrap_or(0.0).max(z));
+        }
+        surfaces.push(SurfaceDiff {
+            name: sb.name.clone(),
+            a: sa.radiosity,
+            b: sb.radiosity,
+            relative: rel,
+            z,
+        });
+    }
+    if surfaces.is_empty() {
+        bail!("the two results have no surface names in common");
+    }
+    Ok(ResultMetrics {
+        kind: "result",
+        relative_l1: if den > 0.0 { num / den } else { num },
+        max_relative: max_rel,
+        max_z,
+        surfaces,
+    })
+}

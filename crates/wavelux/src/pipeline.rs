@@ -1,0 +1,582 @@
+//! `solve` and `render`: load, solve (wavelet radiosity or the Monte Carlo reference),
+//! estimate the error, render, write the EXR, PNG and JSON, print a summary.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use glam::DVec3;
+use wavelux::render::{
+    Image, PathTracer, ReferenceOptions, RenderOptions, SolutionField, ToneMap, View,
+    image::write_bytes_atomic,
+};
+use wavelux::scene::{Camera, Scene, builtin};
+use wavelux::solver::{BasisKind, LinearMethod, Oracle, Solution, SolverConfig, Visibility};
+
+use crate::cli::{BasisArg, CameraArgs, MethodArg, OracleArg, SolveArgs, SolverArg, VisibilityArg};
+use crate::progress;
+use crate::report;
+
+/// Loads `builtin:NAME` or a scene file, validated.
+pub fn load_scene(source: &str) -> anyhow::Result<(Scene, String)> {
+    if let Some(name) = source.strip_prefix("builtin:") {
+        let scene = builtin::builtin(name).with_context(|| {
+            format!(
+                "unknown built-in scene {name:?}; `wavelux scenes` lists them: {}",
+                builtin::BUILTIN_NAMES.join(", ")
+            )
+        })?;
+        let stem = if name == "cornell-box" {
+            "cornell".to_string()
+        } else {
+            name.to_string()
+        };
+        return Ok((scene, stem));
+    }
+    let path = Path::new(source);
+    if !path.exists() {
+        bail!("scene file {source:?} does not exist (use builtin:NAME for a built-in scene)");
+    }
+    let scene = wavelux::scene::load(path).with_context(|| format!("cannot load {source:?}"))?;
+    scene
+        .validate(source)
+        .with_context(|| format!("invalid scene {source:?}"))?;
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".into());
+    Ok((scene, stem))
+}
+
+/// `wavelux scenes`.
+pub fn list_scenes() {
+    println!(
+        "{:<34} {:>8} {:>8} {:>10}",
+        "built-in scene", "surfaces", "cameras", "area m²"
+    );
+    for name in builtin::BUILTIN_NAMES {
+        if let Some(s) = builtin::builtin(name) {
+            println!(
+                "{:<34} {:>8} {:>8} {:>10.4}",
+                format!("builtin:{name}"),
+                s.surfaces.len(),
+                s.cameras.len(),
+                s.total_area()
+            );
+        }
+    }
+}
+
+/// The solver configuration of the arguments; unsupported choices are errors.
+pub fn solver_config(a: &SolveArgs) -> anyhow::Result<SolverConfig> {
+    let basis = match a.basis {
+        BasisArg::Haar => BasisKind::Haar,
+        BasisArg::M2 => BasisKind::Multiwavelet(2),
+        BasisArg::M3 => BasisKind::Multiwavelet(3),
+        BasisArg::Cdv => bail!(
+            "--basis cdv is not available yet: the wavelet solver implements tree-structured \
+             (Haar, Alpert M_k) bases only"
+        ),
+    };
+    let linear_method = match a.solver {
+        SolverArg::Picard | SolverArg::Jacobi => LinearMethod::Picard,
+        SolverArg::GaussSeidel => LinearMethod::GaussSeidel,
+        SolverArg::Gmres => LinearMethod::Gmres { restart: 30 },
+        SolverArg::Cgnr => LinearMethod::Cgnr,
+        SolverArg::Southwell => bail!(
+            "--solver southwell is not available yet for the wavelet solver \
+             (use picard, gauss-seidel, gmres or cgnr)"
+        ),
+    };
+    let cfg = SolverConfig {
+        basis,
+        eps: a.eps,
+        max_level: a.max_level,
+        min_area: a.min_area,
+        oracle: match a.oracle {
+            OracleArg::Kernel => Oracle::KernelSmoothness,
+            OracleArg::Brightness => Oracle::Brightness,
+        },
+        visibility: match a.visibility {
+            VisibilityArg::Quadrature => Visibility::InQuadrature,
+            VisibilityArg::Fractional => Visibility::Fractional,
+            VisibilityArg::Off => Visibility::Off,
+        },
+        quad_points: a.quad,
+        linear_method,
+        max_iterations: a.max_iterations,
+        tolerance: a.tolerance,
+        ..SolverConfig::default()
+    };
+    cfg.validate().context("invalid solver option")?;
+    Ok(cfg)
+}
+
+fn name_of<T: std::fmt::Debug>(v: T) -> String {
+    let s = format!("{v:?}");
+    // CamelCase → kebab-case.
+    let mut out = String::new();
+    for (i, c) in s.chars().enumerate() {
+        if c.is_ascii_uppercase() {
+            if i > 0 {
+                out.push('-');
+            }
+            out.push(c.to_ascii_lowercase());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// Front-side reflectance and emission of a surface (texture means applied).
+fn front_material(scene: &Scene, i: usize) -> ([f64; 3], [f64; 3]) {
+    let m = &scene.materials[scene.surfaces[i].material];
+    let mut rho = m.reflectance.0;
+    let mut e = m.emission.0;
+    if let Some(t) = m
+        .reflectance_texture
+        .and_then(|t| scene.textures.get(t.texture))
+    {
+        let t = t.mean().0;
+        rho = std::array::from_fn(|c| rho[c] * t[c]);
+    }
+    if let Some(t) = m
+        .emission_texture
+        .and_then(|t| scene.textures.get(t.texture))
+    {
+        let t = t.mean().0;
+        e = std::array::from_fn(|c| e[c] * t[c]);
+    }
+    (rho, e)
+}
+
+/// The view: camera flags, else the named or first scene camera, else an automatic one.
+fn choose_view(scene: &Scene, a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<View> {
+    let (w, h) = (a.width, a.height);
+    if let Some(c) = cam {
+        if let (Some(eye), Some(target)) = (&c.eye, &c.target) {
+            let v = |x: &Vec<f64>| DVec3::new(x[0], x[1], x[2]);
+            return View::look_at(v(eye), v(target), v(&c.up), c.fov.to_radians(), w, h)
+                .context("invalid look-at camera");
+        }
+        if let Some(name) = &c.camera {
+            let camera = scene
+                .cameras
+                .iter()
+                .find(|k| &k.name == name)
+                .with_context(|| {
+                    let names: Vec<&str> = scene.cameras.iter().map(|k| k.name.as_str()).collect();
+                    format!("the scene has no camera {name:?} (cameras: {names:?})")
+                })?;
+            return View::new(camera, w, h).context("invalid scene camera");
+        }
+    }
+    if let Some(camera) = scene.cameras.first() {
+        return View::new(camera, w, h).context("invalid scene camera");
+    }
+    Ok(View::new(&auto_camera(scene)?, w, h)?)
+}
+
+/// A camera outside the scene's bounding box looking at its centre.
+fn auto_camera(scene: &Scene) -> anyhow::Result<Camera> {
+    let prims = scene.primitives(&scene.name)?;
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for (_, p) in &prims {
+        let b = p.aabb();
+        lo = lo.min(b.min);
+        hi = hi.max(b.max);
+    }
+    let c = 0.5 * (lo + hi);
+    let d = (hi - lo).length().max(1e-12);
+    let eye = c + DVec3::new(0.6, 0.5, 1.0).normalize() * (1.4 * d);
+    Camera::look_at("auto", eye, c, DVec3::Y, 40f64.to_radians(), None)
+        .context("cannot place an automatic camera")
+}
+
+fn peak_memory() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+fn secs(d: std::time::Duration) -> f64 {
+    d.as_secs_f64()
+}
+
+/// Runs `solve` (camera = None) or `render`.
+pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
+    let t_start = Instant::now();
+    if a.method == MethodArg::Shoot {
+        bail!(
+            "--method shoot (linkless shooting on the Virtual Mesh) is not available yet; \
+             use --method gather or --method reference"
+        );
+    }
+    let threads = match a.threads {
+        Some(0) => bail!("--threads must be >= 1"),
+        Some(n) => {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build_global()
+                .context("cannot set up the thread pool")?;
+            n
+        }
+        None => rayon::current_num_threads(),
+    };
+    if a.width == 0 || a.height == 0 || a.width > 16384 || a.height > 16384 {
+        bail!("--width and --height must be in 1..=16384");
+    }
+    if !(1..=64).contains(&a.spp) {
+        bail!("--spp must be in 1..=64");
+    }
+    let show = progress::enabled(a.quiet);
+    let (scene, stem) = load_scene(&a.scene)?;
+    let t_load = t_start.elapsed();
+    let config = if a.method == MethodArg::Gather {
+        Some(solver_config(a)?)
+    } else {
+        None
+    };
+    let view = if a.no_image {
+        None
+    } else {
+        Some(choose_view(&scene, a, cam)?)
+    };
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create the output directory {:?}", a.out))?;
+
+    let mut stats = report::Statistics::default();
+    stats.time_s.load = secs(t_load);
+    let ropts = ReferenceOptions {
+        seed: a.seed,
+        ..ReferenceOptions::default()
+    };
+    let mut surfaces = Vec::with_capacity(scene.surfaces.len());
+    let mut error_estimate = None;
+    let mut image: Option<Image> = None;
+    let mut solution: Option<Solution> = None;
+
+    match config {
+        Some(cfg) => {
+            let sp = progress::spinner(show, "refining and solving");
+            let sol = wavelux::solver::solve(&scene, &cfg)
+                .with_context(|| format!("solving {:?} failed", a.scene))?;
+            sp.finish_and_clear();
+            let st = &sol.stats;
+            stats.time_s.setup = secs(st.time_setup);
+            stats.time_s.refine = secs(st.time_refine);
+            stats.time_s.solve = secs(st.time_solve);
+            stats.elements = st.elements;
+            stats.leaves = st.leaves;
+            stats.links = st.links;
+            stats.refined_links = st.refined_links;
+            stats.oracle_evaluations = st.oracle_evals;
+            stats.kernel_evaluations = st.kernel_evals;
+            stats.solver_rays = st.rays;
+            stats.solver_bytes = st.bytes;
+            stats.iterations = st.iterations.clone();
+            stats.residual_history = sol
+                .convergence
+                .iter()
+                .map(|c| c.iterations.iter().map(|r| r.relative_residual).collect())
+                .collect();
+            stats.energy = Some(report::Energy {
+                emitted: sol.energy.emitted,
+                absorbed: sol.energy.absorbed,
+                escaped: sol.energy.escaped,
+                unshot: sol.energy.unshot,
+            });
+            for i in 0..scene.surfaces.len() {
+                let (rho, e) = front_material(&scene, i);
+                surfaces.push(report::SurfaceResult {
+                    name: scene.surfaces[i].name.clone(),
+                    area: scene.surfaces[i].shape.area(),
+                    emission: e,
+                    reflectance: rho,
+                    radiosity: sol.surface_average(i),
+                    std_error: None,
+                });
+            }
+            if a.samples > 0 {
+                let t = Instant::now();
+                let sp = progress::spinner(show, "Monte Carlo error check");
+                error_estimate = estimate_error(&scene, &surfaces, a.samples, &ropts);
+                sp.finish_and_clear();
+                stats.time_s.monte_carlo = secs(t.elapsed());
+            }
+            if let Some(view) = &view {
+                let t = Instant::now();
+                let field = SolutionField::new(&sol)?;
+                let pb = progress::bar(show, view.height as u64, "rendering");
+                let (img, rs) = wavelux::render::render(
+                    &field,
+                    view,
+                    &RenderOptions {
+                        spp: a.spp,
+                        gather: a.gather,
+                        seed: a.seed,
+                    },
+                    &|k| pb.inc(k),
+                )?;
+                pb.finish_and_clear();
+                stats.primary_rays = rs.primary_rays;
+                stats.gather_rays = rs.gather_rays;
+                stats.time_s.render = secs(t.elapsed());
+                image = Some(img);
+            }
+            solution = Some(sol);
+        }
+        None => {
+            let t = Instant::now();
+            if a.samples == 0 {
+                bail!("--method reference needs --samples >= 1");
+            }
+            let pt = PathTracer::new(&scene)?;
+            let pb = progress::bar(show, scene.surfaces.len() as u64, "path tracing");
+            for i in 0..scene.surfaces.len() {
+                let est = pt
+                    .surface_average(i, a.samples, &ropts)
+                    .with_context(|| format!("surface {:?}", scene.surfaces[i].name))?;
+                let (rho, e) = front_material(&scene, i);
+                surfaces.push(report::SurfaceResult {
+                    name: scene.surfaces[i].name.clone(),
+                    area: scene.surfaces[i].shape.area(),
+                    emission: e,
+                    reflectance: rho,
+                    radiosity: est.mean,
+                    std_error: Some(est.std_error),
+                });
+                pb.inc(1);
+            }
+            pb.finish_and_clear();
+            stats.time_s.monte_carlo = secs(t.elapsed());
+            if let Some(view) = &view {
+                let t = Instant::now();
+                let pb = progress::bar(show, view.height as u64, "rendering");
+                let img = pt.render(view, a.spp, &ropts, &|k| pb.inc(k))?;
+                pb.finish_and_clear();
+                stats.primary_rays = (view.width * view.height * a.spp * a.spp) as u64;
+                stats.time_s.render = secs(t.elapsed());
+                image = Some(img);
+            }
+        }
+    }
+
+    // Outputs.
+    let t_write = Instant::now();
+    let json_path = a
+        .json
+        .clone()
+        .unwrap_or_else(|| a.out.join(format!("{stem}.json")));
+    let mut outputs = report::Outputs {
+        json: Some(json_path.display().to_string()),
+        ..report::Outputs::default()
+    };
+    if let Some(img) = &image {
+        let exr = a.out.join(format!("{stem}.exr"));
+        let png = a.out.join(format!("{stem}.png"));
+        img.write_exr(&exr)?;
+        img.write_png(&png, ToneMap::Auto)?;
+        outputs.exr = Some(exr.display().to_string());
+        outputs.png = Some(png.display().to_string());
+    }
+    stats.time_s.write = secs(t_write.elapsed());
+    stats.time_s.total = secs(t_start.elapsed());
+    stats.peak_memory_bytes = peak_memory();
+    let result = report::Result {
+        schema: report::SCHEMA.into(),
+        version: report::VERSION,
+        scene: report::SceneInfo {
+            source: a.scene.clone(),
+            name: scene.name.clone(),
+            surfaces: scene.surfaces.len(),
+            total_area: scene.total_area(),
+            emitted_power: scene.emitted_power(),
+        },
+        method: method_info(a, config.as_ref(), threads),
+        surfaces,
+        error_estimate,
+        statistics: stats,
+        outputs,
+    };
+    let text = serde_json::to_string_pretty(&result)?;
+    if let Some(dir) = json_path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create the directory of {json_path:?}"))?;
+    }
+    write_bytes_atomic(&json_path, text.as_bytes())?;
+    if !a.quiet {
+        print_summary(&result, solution.as_ref());
+    }
+    Ok(())
+}
+
+fn method_info(a: &SolveArgs, cfg: Option<&SolverConfig>, threads: usize) -> report::MethodInfo {
+    match cfg {
+        Some(c) => report::MethodInfo {
+            name: "gather".into(),
+            basis: Some(c.basis.name()),
+            eps: Some(c.eps),
+            oracle: Some(name_of(a.oracle)),
+            max_level: Some(c.max_level),
+            min_area: Some(c.min_area),
+            solver: Some(name_of(a.solver)),
+            max_iterations: Some(c.max_iterations),
+            tolerance: Some(c.tolerance),
+            visibility: Some(name_of(a.visibility)),
+            quad: Some(c.quad_points),
+            samples: a.samples,
+            threads,
+            seed: a.seed,
+        },
+        None => report::MethodInfo {
+            name: "reference".into(),
+            basis: None,
+            eps: None,
+            oracle: None,
+            max_level: None,
+            min_area: None,
+            solver: None,
+            max_iterations: None,
+            tolerance: None,
+            visibility: None,
+            quad: None,
+            samples: a.samples,
+            threads,
+            seed: a.seed,
+        },
+    }
+}
+
+/// Compares surface averages with a quick path-traced check.
+fn estimate_error(
+    scene: &Scene,
+    surfaces: &[report::SurfaceResult],
+    samples: u64,
+    opts: &ReferenceOptions,
+) -> Option<report::ErrorEstimate> {
+    let pt = PathTracer::new(scene).ok()?;
+    let (mut num, mut den, mut noise, mut max_z) = (0.0, 0.0, 0.0, 0.0f64);
+    for (i, s) in surfaces.iter().enumerate() {
+        let est = pt.surface_average(i, samples, opts).ok()?;
+        for c in 0..3 {
+            let d = (s.radiosity[c] - est.mean[c]).abs();
+            num += s.area * d;
+            den += s.area * est.mean[c].abs();
+            noise += s.area * est.std_error[c];
+            if est.std_error[c] > 0.0 {
+                max_z = max_z.max(d / est.std_error[c]);
+            }
+        }
+    }
+    (den > 0.0).then(|| report::ErrorEstimate {
+        relative_l1: num / den,
+        check_noise: noise / den,
+        max_z,
+        samples,
+    })
+}
+
+fn mib(b: u64) -> f64 {
+    b as f64 / (1024.0 * 1024.0)
+}
+
+fn print_summary(r: &report::Result, sol: Option<&Solution>) {
+    let m = &r.method;
+    let st = &r.statistics;
+    println!(
+        "wavelux {} — {} ({})",
+        env!("CARGO_PKG_VERSION"),
+        r.scene.name,
+        r.scene.source
+    );
+    match m.name.as_str() {
+        "gather" => println!(
+            "  method      wavelet radiosity (gather), basis {}, eps {:e} ({} oracle), max level {}, {} solver, {} visibility, {}x{} quadrature",
+            m.basis.as_deref().unwrap_or("?"),
+            m.eps.unwrap_or(0.0),
+            m.oracle.as_deref().unwrap_or("?"),
+            m.max_level.unwrap_or(0),
+            m.solver.as_deref().unwrap_or("?"),
+            m.visibility.as_deref().unwrap_or("?"),
+            m.quad.unwrap_or(0),
+            m.quad.unwrap_or(0),
+        ),
+        _ => println!(
+            "  method      Monte Carlo path tracer, {} samples per surface",
+            m.samples
+        ),
+    }
+    match &r.error_estimate {
+        Some(e) => println!(
+            "  error       {:.2}% relative L1 of surface averages vs a {}-sample path-traced check (check noise {:.2}%, max |z| {:.1})",
+            100.0 * e.relative_l1,
+            e.samples,
+            100.0 * e.check_noise,
+            e.max_z
+        ),
+        None if m.name == "reference" => {
+            let rel: f64 = r
+                .surfaces
+                .iter()
+                .map(|s| {
+                    s.std_error
+                        .map_or(0.0, |se| s.area * se.iter().sum::<f64>())
+                })
+                .sum::<f64>()
+                / r.surfaces
+                    .iter()
+                    .map(|s| s.area * s.radiosity.iter().sum::<f64>())
+                    .sum::<f64>()
+                    .max(f64::MIN_POSITIVE);
+            println!(
+                "  error       {:.3}% (area-weighted standard error)",
+                100.0 * rel
+            );
+        }
+        None => println!("  error       not estimated (--samples 0 or curved surfaces)"),
+    }
+    if sol.is_some() {
+        let res = st
+            .residual_history
+            .iter()
+            .filter_map(|h| h.last().copied())
+            .fold(0.0f64, f64::max);
+        println!(
+            "  elements    {} ({} leaves), links {}, kernel evaluations {}, iterations {:?}, residual {:.1e}",
+            st.elements, st.leaves, st.links, st.kernel_evaluations, st.iterations, res
+        );
+    }
+    println!(
+        "  rays        {} solver shadow, {} primary, {} gather",
+        st.solver_rays, st.primary_rays, st.gather_rays
+    );
+    let t = &st.time_s;
+    println!(
+        "  time        {:.2} s total: setup {:.2}, refine {:.2}, solve {:.2}, Monte Carlo {:.2}, render {:.2}, write {:.2} ({} threads)",
+        t.total, t.setup, t.refine, t.solve, t.monte_carlo, t.render, t.write, m.threads
+    );
+    println!(
+        "  memory      {:.1} MiB solver, {} peak",
+        mib(st.solver_bytes as u64),
+        st.peak_memory_bytes
+            .map_or("unknown".to_string(), |b| format!("{:.1} MiB", mib(b)))
+    );
+    println!("  surfaces    name: radiosity W/m² (R, G, B)");
+    for s in r.surfaces.iter().take(12) {
+        println!(
+            "    {:<28} {:>10.4} {:>10.4} {:>10.4}",
+            s.name, s.radiosity[0], s.radiosity[1], s.radiosity[2]
+        );
+    }
+    if r.surfaces.len() > 12 {
+        println!("    ... {} more in the JSON", r.surfaces.len() - 12);
+    }
+    let o = &r.outputs;
+    for p in [&o.exr, &o.png, &o.json].into_iter().flatten() {
+        println!("  wrote       {p}");
+    }
+}

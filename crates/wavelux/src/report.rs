@@ -1,0 +1,188 @@
+//! The JSON result (schema `wavelux-result`, version 1; documented in `docs/cli.md`).
+
+use serde::{Deserialize, Serialize};
+
+/// Name of the schema.
+pub const SCHEMA: &str = "wavelux-result";
+/// Version of the schema.
+pub const VERSION: u32 = 1;
+
+/// A complete result file.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Result {
+    /// Always [`SCHEMA`].
+    pub schema: String,
+    /// Always [`VERSION`].
+    pub version: u32,
+    /// The scene.
+    pub scene: SceneInfo,
+    /// Method and every knob that was used.
+    pub method: MethodInfo,
+    /// Per surface results.
+    pub surfaces: Vec<SurfaceResult>,
+    /// Error estimate against a quick Monte Carlo check (null when skipped).
+    pub error_estimate: Option<ErrorEstimate>,
+    /// Run statistics.
+    pub statistics: Statistics,
+    /// Files written (null entries were not written).
+    pub outputs: Outputs,
+}
+
+/// The scene.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SceneInfo {
+    /// As given on the command line.
+    pub source: String,
+    /// Scene name.
+    pub name: String,
+    /// Number of surfaces.
+    pub surfaces: usize,
+    /// Total area of the surfaces (scene units², one side each).
+    pub total_area: f64,
+    /// Emitted power Σ area·E (W per channel).
+    pub emitted_power: [f64; 3],
+}
+
+/// Method and knobs.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct MethodInfo {
+    /// `gather` or `reference`.
+    pub name: String,
+    /// Basis (`Haar`, `M2`, `M3`), null for the reference.
+    pub basis: Option<String>,
+    /// Refinement threshold.
+    pub eps: Option<f64>,
+    /// Oracle (`kernel`, `brightness`).
+    pub oracle: Option<String>,
+    /// Deepest level.
+    pub max_level: Option<u8>,
+    /// Smallest element area.
+    pub min_area: Option<f64>,
+    /// Linear solver.
+    pub solver: Option<String>,
+    /// Iteration cap.
+    pub max_iterations: Option<usize>,
+    /// Relative residual tolerance.
+    pub tolerance: Option<f64>,
+    /// Visibility mode.
+    pub visibility: Option<String>,
+    /// Gauss points per axis.
+    pub quad: Option<usize>,
+    /// Monte Carlo samples per surface (reference or error check).
+    pub samples: u64,
+    /// Worker threads.
+    pub threads: usize,
+    /// Seed.
+    pub seed: u64,
+}
+
+/// One surface.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SurfaceResult {
+    /// Surface name (glTF node name, else mesh name, else a stable generated name).
+    pub name: String,
+    /// Area of one side (scene units²).
+    pub area: f64,
+    /// Emitted exitance E of the front side (W/m²).
+    pub emission: [f64; 3],
+    /// Diffuse reflectance ρ of the front side.
+    pub reflectance: [f64; 3],
+    /// Area-averaged exitant radiosity B of the front side (W/m², same units as E).
+    pub radiosity: [f64; 3],
+    /// Standard error of `radiosity` (Monte Carlo reference only, else null).
+    pub std_error: Option<[f64; 3]>,
+}
+
+/// Error estimate against the Monte Carlo check.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ErrorEstimate {
+    /// `Σ_s A_s Σ_c |B_sc − B̂_sc| / Σ_s A_s Σ_c |B̂_sc|` against the check's averages.
+    pub relative_l1: f64,
+    /// The same with the check's standard errors in place of the difference: the noise
+    /// floor of `relative_l1`.
+    pub check_noise: f64,
+    /// Largest |B − B̂| / (standard error) over surfaces and channels.
+    pub max_z: f64,
+    /// Monte Carlo samples per surface.
+    pub samples: u64,
+}
+
+/// Wall time per phase (seconds).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct Times {
+    /// Loading and validating the scene.
+    pub load: f64,
+    /// Supports, accelerator, rule setup.
+    pub setup: f64,
+    /// Refinement and link computation.
+    pub refine: f64,
+    /// Linear solves.
+    pub solve: f64,
+    /// Monte Carlo (reference or error check).
+    pub monte_carlo: f64,
+    /// Rendering.
+    pub render: f64,
+    /// Writing files.
+    pub write: f64,
+    /// Whole run.
+    pub total: f64,
+}
+
+/// Run statistics.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct Statistics {
+    /// Wall times.
+    pub time_s: Times,
+    /// Quadtree nodes over all patches.
+    pub elements: usize,
+    /// Leaf elements (unknown blocks).
+    pub leaves: usize,
+    /// Links stored.
+    pub links: usize,
+    /// Links split during refinement.
+    pub refined_links: u64,
+    /// Oracle evaluations.
+    pub oracle_evaluations: u64,
+    /// Kernel evaluations.
+    pub kernel_evaluations: u64,
+    /// Shadow rays of the solver.
+    pub solver_rays: u64,
+    /// Primary rays of the image.
+    pub primary_rays: u64,
+    /// Final-gather rays.
+    pub gather_rays: u64,
+    /// Bytes held by the solver's hierarchy, links and vectors.
+    pub solver_bytes: usize,
+    /// Peak resident memory of the process (bytes; null where unknown).
+    pub peak_memory_bytes: Option<u64>,
+    /// Iterations per channel solve.
+    pub iterations: Vec<usize>,
+    /// Relative residual after each iteration, per channel solve.
+    pub residual_history: Vec<Vec<f64>>,
+    /// Energy balance: emitted, absorbed, escaped and unshot power (W per channel).
+    pub energy: Option<Energy>,
+}
+
+/// Energy accounting (W per channel).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Energy {
+    /// Σ E·A.
+    pub emitted: [f64; 3],
+    /// Σ (1 − ρ) ∫H.
+    pub absorbed: [f64; 3],
+    /// Power leaving the modelled sides.
+    pub escaped: [f64; 3],
+    /// Power not yet propagated.
+    pub unshot: [f64; 3],
+}
+
+/// Output files.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct Outputs {
+    /// Linear EXR.
+    pub exr: Option<String>,
+    /// Tone-mapped PNG.
+    pub png: Option<String>,
+    /// This JSON.
+    pub json: Option<String>,
+}
