@@ -9,8 +9,9 @@
 //! (unbiased: survivors are divided by it). Rays that escape or hit the back of a
 //! one-sided surface (a black occluder) contribute nothing. When every emitter is
 //! planar, emitted light is gathered by next-event estimation (one shadow ray per
-//! vertex to a point drawn uniformly by area over all emitting sides) and the walk
-//! itself collects only reflected light, which cuts the variance for small lights.
+//! vertex to a point drawn uniformly by area over all emitting sides) combined with
+//! the emission the walk finds by the balance heuristic (Veach's multiple importance
+//! sampling), which cuts the variance for small lights and stays bounded in corners.
 //!
 //! - Per-surface averages: points uniform by area on the surface's front side (the
 //!   quantity `wavelux_solver::Solution::surface_average` reports), one walk each; the
@@ -266,10 +267,21 @@ impl PathTracer {
             let Some((_, m, hn)) = self.side_of(&hit) else {
                 break;
             };
-            for c in 0..3 {
-                if self.lights.is_none() {
-                    out[c] += thr[c] * m.e[c];
+            // Emission found by the walk: all of it without light sampling, else its
+            // balance-heuristic share (Veach's MIS: the light sample takes the rest).
+            let w = match &self.lights {
+                None => 1.0,
+                Some((_, cdf)) if max3(m.e) > 0.0 => {
+                    let tot = cdf.last().copied().unwrap_or(0.0);
+                    let pb = nn.dot(d).max(0.0) / std::f64::consts::PI;
+                    let cy = (-d.dot(hn)).max(1e-300);
+                    let pl = hit.t * hit.t / (cy * tot);
+                    pb / (pb + pl)
                 }
+                Some(_) => 0.0,
+            };
+            for c in 0..3 {
+                out[c] += thr[c] * m.e[c] * w;
                 thr[c] *= m.rho[c];
             }
             if depth + 1 >= opts.rr_depth {
@@ -311,7 +323,12 @@ impl PathTracer {
         if self.accel.occluded(x, y, [prim, Some(k as u32)]) {
             return Some([0.0; 3]);
         }
-        let g = cx * cy * tot / (std::f64::consts::PI * r2);
+        // Balance heuristic with the cosine-sampled walk (pdfs in solid angle):
+        // light `r²/(cos θ_y A)`, walk `cos θ_x/π`. The weighted estimate
+        // `E cos θ_x/π / (p_light + p_walk)` is bounded by `E` (no corner singularity).
+        let pl = r2 / (cy * tot);
+        let pb = cx / std::f64::consts::PI;
+        let g = cx / std::f64::consts::PI / (pl + pb);
         Some(e.map(|v| v * g))
     }
 

@@ -7,8 +7,9 @@
 //! cosine-distributed rays from `x` (pdf `cos θ/π`, so the irradiance estimator is the
 //! plain mean of the `B(y_k)`). When the field can sample its emitters
 //! ([`RadiosityField::sample_emitter`]), the emitted part of the irradiance is
-//! estimated by light sampling instead (one shadow ray per gather ray) and the gather
-//! rays collect only the reflected part `B − E`: direct shadows then come from exact
+//! estimated by light sampling as well (one shadow ray per gather ray, combined with
+//! the gather rays' hits on emitters by the balance heuristic) and the gather rays
+//! otherwise collect the reflected part `B − E`: direct shadows then come from exact
 //! visibility per pixel, not from the solution's elements. This replaces the element-wise (blocky) radiosity by a
 //! per-pixel integral of it, which sharpens shadows and hides element boundaries
 //! (Glossy §5.5 uses the same one-bounce gather for its glossy final pass).
@@ -80,11 +81,14 @@ pub(crate) fn radiosity_along<F: RadiosityField + ?Sized>(
     }
 }
 
-/// Like [`radiosity_along`] but only the reflected part `B − E` at the hit.
+/// Like [`radiosity_along`] but the emitted part of the hit only with its
+/// balance-heuristic weight against [`direct_light`] (`normal_cos`: cosine of the ray
+/// with the normal at its origin).
 pub(crate) fn reflected_along<F: RadiosityField + ?Sized>(
     field: &F,
     origin: DVec3,
     dir: DVec3,
+    normal_cos: f64,
     eps: f64,
 ) -> [f64; 3] {
     let ray = Ray { origin, dir };
@@ -92,14 +96,24 @@ pub(crate) fn reflected_along<F: RadiosityField + ?Sized>(
         Some(h) => field.resolve(&h).map_or([0.0; 3], |p| {
             let b = field.radiosity(&p);
             let e = field.emission(&p);
-            std::array::from_fn(|c| b[c] - e[c])
+            // The emission's balance-heuristic share (the light sample takes the rest).
+            let w = match field.sample_emitter([0.5; 3]) {
+                Some(s) if e.iter().any(|&v| v > 0.0) => {
+                    let pb = normal_cos / std::f64::consts::PI;
+                    let cy = (-dir.dot(p.normal)).max(1e-300);
+                    let pl = h.t * h.t / (cy * s.total_area);
+                    pb / (pb + pl)
+                }
+                _ => 0.0,
+            };
+            std::array::from_fn(|c| b[c] - e[c] + w * e[c])
         }),
         None => [0.0; 3],
     }
 }
 
-/// One-sample light-sampling estimate of the emitted irradiance at `x` (normal `n`):
-/// `E cos θ_x cos θ_y A / (π r²)` if the drawn emitter point is visible.
+/// One-sample light-sampling estimate of the emitted irradiance at `x` (normal `n`),
+/// balance-heuristic weighted against the gather rays, if the drawn point is visible.
 pub(crate) fn direct_light<F: RadiosityField + ?Sized>(
     field: &F,
     x: DVec3,
@@ -119,7 +133,10 @@ pub(crate) fn direct_light<F: RadiosityField + ?Sized>(
     if cx <= 0.0 || cy <= 0.0 || field.accel().occluded(x, s.point, [None, Some(s.prim)]) {
         return [0.0; 3];
     }
-    let g = cx * cy * s.total_area / (std::f64::consts::PI * r2);
+    // Balance heuristic against the cosine-distributed gather rays (solid angle pdfs).
+    let pl = r2 / (cy * s.total_area);
+    let pb = cx / std::f64::consts::PI;
+    let g = cx / std::f64::consts::PI / (pl + pb);
     s.emission.map(|e| e * g)
 }
 
@@ -178,7 +195,7 @@ pub fn render<F: RadiosityField + ?Sized>(
                                 for _ in 0..opts.gather {
                                     let d = cosine_dir(p.normal, rng.random(), rng.random());
                                     let bb = if nee {
-                                        reflected_along(field, o, d, eps)
+                                        reflected_along(field, o, d, d.dot(p.normal), eps)
                                     } else {
                                         radiosity_along(field, o, d, eps)
                                     };
