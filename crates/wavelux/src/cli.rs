@@ -9,7 +9,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 /// With no command: solve and render the built-in Cornell box with good defaults and
 /// write out/cornell.exr, out/cornell.png and out/cornell.json.
 #[derive(Parser)]
-#[command(name = "wavelux", version, about)]
+#[command(name = "wavelux", version, about, args_override_self = true)]
 pub struct Cli {
     /// What to do (default: `solve builtin:cornell-box`).
     #[command(subcommand)]
@@ -18,6 +18,7 @@ pub struct Cli {
 
 /// Used to get the defaults of `solve` when no command is given.
 #[derive(Parser)]
+#[command(args_override_self = true)]
 pub struct SolveOnly {
     /// The arguments.
     #[command(flatten)]
@@ -28,8 +29,10 @@ pub struct SolveOnly {
 #[derive(Subcommand)]
 pub enum Command {
     /// Solve a scene, write its JSON result and an image from the scene's camera.
+    #[command(args_override_self = true)]
     Solve(SolveArgs),
     /// Like `solve`, with the camera chosen by name or given by flags.
+    #[command(args_override_self = true)]
     Render(RenderArgs),
     /// List the built-in scenes.
     Scenes,
@@ -182,13 +185,28 @@ pub struct CameraArgs {
     #[arg(long, conflicts_with_all = ["eye", "target"])]
     pub camera: Option<String>,
     /// Eye position x,y,z (explicit look-at camera; needs --target).
-    #[arg(long, value_delimiter = ',', num_args = 3, requires = "target")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        requires = "target",
+        allow_negative_numbers = true
+    )]
     pub eye: Option<Vec<f64>>,
     /// Look-at target x,y,z.
-    #[arg(long, value_delimiter = ',', num_args = 3, requires = "eye")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        requires = "eye",
+        allow_negative_numbers = true
+    )]
     pub target: Option<Vec<f64>>,
     /// Up direction x,y,z of the look-at camera.
-    #[arg(long, value_delimiter = ',', num_args = 3, default_value = "0,1,0")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0,1,0",
+        allow_negative_numbers = true
+    )]
     pub up: Vec<f64>,
     /// Vertical field of view of the look-at camera in degrees.
     #[arg(long, default_value_t = 40.0)]

@@ -156,9 +156,21 @@ fn choose_view(scene: &Scene, a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow
     let (w, h) = (a.width, a.height);
     if let Some(c) = cam {
         if let (Some(eye), Some(target)) = (&c.eye, &c.target) {
-            let v = |x: &Vec<f64>| DVec3::new(x[0], x[1], x[2]);
-            return View::look_at(v(eye), v(target), v(&c.up), c.fov.to_radians(), w, h)
-                .context("invalid look-at camera");
+            let v = |x: &Vec<f64>, what: &str| -> anyhow::Result<DVec3> {
+                match x.as_slice() {
+                    [a, b, c] => Ok(DVec3::new(*a, *b, *c)),
+                    _ => bail!("--{what} needs three comma-separated numbers x,y,z"),
+                }
+            };
+            return View::look_at(
+                v(eye, "eye")?,
+                v(target, "target")?,
+                v(&c.up, "up")?,
+                c.fov.to_radians(),
+                w,
+                h,
+            )
+            .context("invalid look-at camera");
         }
         if let Some(name) = &c.camera {
             let camera = scene

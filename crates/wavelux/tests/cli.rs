@@ -1,0 +1,514 @@
+//! Integration tests of the `wavelux` binary: the real executable on built-in, native
+//! and glTF scenes with small settings, its JSON checked against closed forms and the
+//! Monte Carlo reference within stated tolerances.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use anyhow::{Context, Result};
+use serde_json::Value;
+
+const EXE: &str = env!("CARGO_BIN_EXE_wavelux");
+
+/// Small, fast settings for every solve (dev profile).
+const FAST: &[&str] = &[
+    "--eps",
+    "0.1",
+    "--max-level",
+    "2",
+    "--width",
+    "24",
+    "--height",
+    "24",
+    "--spp",
+    "1",
+    "--gather",
+    "2",
+    "--samples",
+    "2000",
+    "--threads",
+    "2",
+];
+
+fn run(args: &[&str], cwd: &Path) -> Output {
+    Command::new(EXE)
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("the wavelux binary runs")
+}
+
+fn ok(args: &[&str], cwd: &Path) -> Result<String> {
+    let out = run(args, cwd);
+    anyhow::ensure!(
+        out.status.success(),
+        "wavelux {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+fn fails(args: &[&str], cwd: &Path, needle: &str) {
+    let out = run(args, cwd);
+    assert!(!out.status.success(), "wavelux {args:?} should fail");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(needle),
+        "stderr of {args:?} lacks {needle:?}: {err}"
+    );
+}
+
+fn solve_json(scene: &str, extra: &[&str], cwd: &Path, name: &str) -> Result<Value> {
+    let json = cwd.join(format!("{name}.json"));
+    let mut args = vec!["solve", scene];
+    args.extend_from_slice(FAST);
+    args.extend_from_slice(extra);
+    let j = json.to_str().context("utf-8 path")?.to_string();
+    args.extend_from_slice(&["--json", &j, "--quiet"]);
+    ok(&args, cwd)?;
+    Ok(serde_json::from_str(&std::fs::read_to_string(&json)?)?)
+}
+
+fn radiosity(v: &Value, surface: &str) -> [f64; 3] {
+    let s = v["surfaces"]
+        .as_array()
+        .and_then(|a| a.iter().find(|s| s["name"] == surface))
+        .unwrap_or_else(|| panic!("surface {surface} missing"));
+    std::array::from_fn(|c| s["radiosity"][c].as_f64().unwrap())
+}
+
+#[test]
+fn default_cornell_run_writes_exr_png_json() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let mut args = vec!["solve"];
+    args.extend_from_slice(FAST);
+    let stdout = ok(&args, dir.path())?;
+    for f in ["cornell.exr", "cornell.png", "cornell.json"] {
+        let p = dir.path().join("out").join(f);
+        assert!(p.is_file(), "{f} missing");
+        assert!(
+            stdout.contains(&format!("out/{f}")),
+            "summary does not name {f}"
+        );
+    }
+    for key in ["method", "error", "elements", "rays", "time", "memory"] {
+        assert!(stdout.contains(key), "summary lacks {key}: {stdout}");
+    }
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(
+        dir.path().join("out/cornell.json"),
+    )?)?;
+    assert_eq!(v["schema"], "wavelux-result");
+    assert_eq!(v["version"], 1);
+    let surfaces = v["surfaces"].as_array().context("surfaces")?;
+    assert_eq!(surfaces.len(), 8);
+    for s in surfaces {
+        for k in ["name", "area", "emission", "reflectance", "radiosity"] {
+            assert!(!s[k].is_null(), "{k} missing");
+        }
+    }
+    let st = &v["statistics"];
+    for k in [
+        "elements",
+        "links",
+        "kernel_evaluations",
+        "solver_rays",
+        "primary_rays",
+    ] {
+        assert!(st[k].as_u64().context(k)? > 0, "{k} is zero");
+    }
+    assert!(
+        st["residual_history"][0]
+            .as_array()
+            .context("history")?
+            .len()
+            > 1
+    );
+    assert!(st["time_s"]["total"].as_f64().context("time")? > 0.0);
+    // The image files are valid and show light.
+    let img = wavelux::render::Image::read_exr(&dir.path().join("out/cornell.exr"))?;
+    assert_eq!((img.width, img.height), (24, 24));
+    assert!(
+        img.pixels.iter().any(|p| p[0] > 1.0),
+        "the light is visible"
+    );
+    wavelux::render::Image::read_png(&dir.path().join("out/cornell.png"))?;
+    // The light's radiosity is at least its exitance π·(17, 12, 4).
+    let light = radiosity(&v, "light");
+    assert!(light[0] >= std::f64::consts::PI * 17.0);
+    Ok(())
+}
+
+/// The solver's surface averages against the path tracer run through the binary:
+/// `|B − B_mc| ≤ 4σ + 25 %·B_mc` per surface and channel at these very coarse settings
+/// (level 2), and the two estimators agree to 8 % area-weighted.
+#[test]
+fn cornell_json_agrees_with_the_reference() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let sol = solve_json("builtin:cornell-box", &["--no-image"], dir.path(), "sol")?;
+    let refr = solve_json(
+        "builtin:cornell-box",
+        &["--no-image", "--method", "reference", "--samples", "6000"],
+        dir.path(),
+        "ref",
+    )?;
+    assert_eq!(refr["method"]["name"], "reference");
+    let (mut num, mut den) = (0.0, 0.0);
+    for s in refr["surfaces"].as_array().context("surfaces")? {
+        let name = s["name"].as_str().context("name")?;
+        let b = radiosity(&sol, name);
+        let area = s["area"].as_f64().context("area")?;
+        for c in 0..3 {
+            let m = s["radiosity"][c].as_f64().context("r")?;
+            let se = s["std_error"][c].as_f64().context("se")?;
+            assert!(
+                (b[c] - m).abs() <= 4.0 * se + 0.25 * m,
+                "{name} {c}: {} vs {m} ± {se}",
+                b[c]
+            );
+            num += area * (b[c] - m).abs();
+            den += area * m;
+        }
+    }
+    assert!(num / den < 0.08, "relative L1 {}", num / den);
+    // compare reports the same kind of number.
+    let out = ok(
+        &["compare", "sol.json", "ref.json", "--json", "cmp.json"],
+        dir.path(),
+    )?;
+    assert!(out.contains("relative L1"));
+    let cmp: Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("cmp.json"))?)?;
+    assert!(cmp["relative_l1"].as_f64().context("l1")? < 0.08);
+    Ok(())
+}
+
+/// White furnace, B = E/(1 − ρ) = 2, for every linear solver, basis and visibility mode.
+#[test]
+fn every_solver_basis_and_visibility_option_solves_the_furnace() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let cases: &[&[&str]] = &[
+        &["--solver", "picard"],
+        &["--solver", "jacobi"],
+        &["--solver", "gauss-seidel"],
+        &["--solver", "gmres"],
+        &["--solver", "cgnr"],
+        &["--basis", "haar"],
+        &["--basis", "m2"],
+        &["--basis", "m3"],
+        &["--visibility", "quadrature"],
+        &["--visibility", "fractional"],
+        &["--quad", "2"],
+        &["--oracle", "brightness", "--eps", "0.5"],
+        &["--min-area", "0.01"],
+        &["--seed", "7"],
+    ];
+    for (i, extra) in cases.iter().enumerate() {
+        let mut e = extra.to_vec();
+        e.push("--no-image");
+        let v = solve_json("builtin:white-furnace", &e, dir.path(), &format!("f{i}"))?;
+        for s in v["surfaces"].as_array().context("surfaces")? {
+            for c in 0..3 {
+                let b = s["radiosity"][c].as_f64().context("b")?;
+                assert!((b - 2.0).abs() < 0.02, "{extra:?}: {} = {b}", s["name"]);
+            }
+        }
+        // The echoed method names what was asked for.
+        if extra[0] == "--solver" {
+            let want = if extra[1] == "jacobi" {
+                "jacobi"
+            } else {
+                extra[1]
+            };
+            assert_eq!(v["method"]["solver"], want);
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn unavailable_and_bad_options_fail_clearly() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    fails(&["solve", "--method", "shoot"], d, "not available yet");
+    fails(&["solve", "--basis", "cdv"], d, "not available yet");
+    fails(&["solve", "--solver", "southwell"], d, "not available yet");
+    fails(&["solve", "--eps=-1"], d, "eps");
+    fails(&["solve", "--quad", "40"], d, "quad_points");
+    fails(&["solve", "--threads", "0"], d, "--threads");
+    fails(&["solve", "builtin:nope"], d, "unknown built-in scene");
+    fails(&["solve", "missing.gltf"], d, "does not exist");
+    std::fs::write(d.join("bad.toml"), "this is = = not toml")?;
+    fails(&["solve", "bad.toml"], d, "bad.toml");
+    fails(&["solve", "--width", "0"], d, "--width");
+    fails(&["render", "--camera", "nope"], d, "no camera");
+    fails(&["compare", "a.json", "b.png"], d, "not one of each");
+    // Nothing was written by the failed runs.
+    assert!(!d.join("out").join("cornell.json").exists());
+    Ok(())
+}
+
+#[test]
+fn failed_run_keeps_older_outputs() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("out");
+    std::fs::create_dir_all(&out)?;
+    std::fs::write(out.join("cornell.json"), "old")?;
+    fails(&["solve", "--solver", "southwell"], dir.path(), "southwell");
+    assert_eq!(std::fs::read_to_string(out.join("cornell.json"))?, "old");
+    // A successful run replaces it, leaving no temporary files.
+    let mut args = vec!["solve", "--no-image"];
+    args.extend_from_slice(FAST);
+    ok(&args, dir.path())?;
+    assert_ne!(std::fs::read_to_string(out.join("cornell.json"))?, "old");
+    for e in std::fs::read_dir(&out)? {
+        let n = e?.file_name().to_string_lossy().into_owned();
+        assert!(!n.contains(".tmp-"), "temporary file {n} left");
+    }
+    Ok(())
+}
+
+#[test]
+fn results_are_identical_for_one_and_two_threads() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    let mut a = vec!["solve"];
+    a.extend_from_slice(FAST);
+    let run_with = |t: &str, o: &str| -> Result<()> {
+        let mut args = a.clone();
+        args.extend_from_slice(&["--threads", t, "--out", o, "--quiet"]);
+        ok(&args, d).map(|_| ())
+    };
+    run_with("1", "t1")?;
+    run_with("2", "t2")?;
+    let j1: Value = serde_json::from_str(&std::fs::read_to_string(d.join("t1/cornell.json"))?)?;
+    let j2: Value = serde_json::from_str(&std::fs::read_to_string(d.join("t2/cornell.json"))?)?;
+    assert_eq!(j1["surfaces"], j2["surfaces"]);
+    assert_eq!(j1["error_estimate"], j2["error_estimate"]);
+    assert_eq!(
+        std::fs::read(d.join("t1/cornell.exr"))?,
+        std::fs::read(d.join("t2/cornell.exr"))?
+    );
+    Ok(())
+}
+
+#[test]
+fn scenes_lists_the_builtins_and_quiet_is_quiet() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let out = ok(&["scenes"], dir.path())?;
+    for n in [
+        "builtin:cornell-box",
+        "builtin:white-furnace",
+        "builtin:ziegler-occluded",
+    ] {
+        assert!(out.contains(n), "{n} not listed");
+    }
+    let mut args = vec!["solve", "builtin:white-furnace", "--quiet"];
+    args.extend_from_slice(FAST);
+    assert_eq!(ok(&args, dir.path())?, "");
+    Ok(())
+}
+
+/// `render` with an explicit look-at camera, and `compare` of two images with an
+/// error map.
+#[test]
+fn render_with_camera_flags_and_compare_images() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    let mut args = vec!["render"];
+    args.extend_from_slice(FAST);
+    args.extend_from_slice(&[
+        "--eye",
+        "0.278,0.273,-0.5",
+        "--target",
+        "0.278,0.273,0.3",
+        "--fov",
+        "50",
+        "--out",
+        "a",
+    ]);
+    ok(&args, d)?;
+    // `solve --no-image` writes no image and says so in the JSON.
+    let v: Value = {
+        let mut a3 = vec!["solve", "--no-image"];
+        a3.extend_from_slice(FAST);
+        a3.extend_from_slice(&["--out", "c"]);
+        ok(&a3, d)?;
+        serde_json::from_str(&std::fs::read_to_string(d.join("c/cornell.json"))?)?
+    };
+    assert_eq!(v["outputs"]["exr"], Value::Null);
+    let mut a4 = vec!["render"];
+    a4.extend_from_slice(FAST);
+    a4.extend_from_slice(&["--out", "b"]);
+    ok(&a4, d)?;
+    let out = ok(
+        &[
+            "compare",
+            "a/cornell.exr",
+            "b/cornell.exr",
+            "--map",
+            "map.png",
+            "--json",
+            "m.json",
+        ],
+        d,
+    )?;
+    assert!(out.contains("relative L1"));
+    let map = wavelux::render::Image::read_png(&d.join("map.png"))?;
+    assert_eq!((map.width, map.height), (24, 24));
+    let m: Value = serde_json::from_str(&std::fs::read_to_string(d.join("m.json"))?)?;
+    assert!(
+        m["l1"].as_f64().context("l1")? > 0.0,
+        "different cameras, different images"
+    );
+    // An image against itself: zero error.
+    let same = ok(
+        &[
+            "compare",
+            "a/cornell.exr",
+            "a/cornell.exr",
+            "--json",
+            "z.json",
+        ],
+        d,
+    )?;
+    assert!(same.contains("L1 0"));
+    Ok(())
+}
+
+/// Two opposed rectangles in the native format: the receiver's JSON radiosity is
+/// `ρ F E` (catalog C-11) to the solver's accuracy and within 4σ of the reference.
+#[test]
+fn native_two_patch_scene_matches_the_catalog() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let (a, b, c, e, rho) = (1.0, 0.6, 0.7, 3.0, 0.6);
+    let toml = format!(
+        r#"
+name = "two-patch"
+[[material]]
+name = "recv"
+reflectance = {rho}
+[[material]]
+name = "emit"
+reflectance = 0.0
+emission = {e}
+[[surface]]
+name = "receiver"
+material = "recv"
+shape = {{ type = "parallelogram", origin = [0, 0, 0], edge_u = [{a}, 0, 0], edge_v = [0, {b}, 0] }}
+[[surface]]
+name = "emitter"
+material = "emit"
+shape = {{ type = "parallelogram", origin = [0, 0, {c}], edge_u = [0, {b}, 0], edge_v = [{a}, 0, 0] }}
+"#
+    );
+    std::fs::write(dir.path().join("two.toml"), toml)?;
+    let exact = rho * wavelux::geometry::formfactor::parallel_rectangles(a, b, c)? * e;
+    let v = solve_json(
+        "two.toml",
+        &["--max-level", "4", "--eps", "0.01"],
+        dir.path(),
+        "sol",
+    )?;
+    let r = radiosity(&v, "receiver");
+    assert!((r[0] - exact).abs() < 0.01 * exact, "{} vs {exact}", r[0]);
+    let refr = solve_json(
+        "two.toml",
+        &["--method", "reference", "--samples", "20000", "--no-image"],
+        dir.path(),
+        "ref",
+    )?;
+    let s = &refr["surfaces"][0];
+    let (m, se) = (
+        s["radiosity"][0].as_f64().context("m")?,
+        s["std_error"][0].as_f64().context("se")?,
+    );
+    assert!((m - exact).abs() < 4.0 * se, "{m} ± {se} vs {exact}");
+    Ok(())
+}
+
+/// The same two rectangles as glTF: names come from nodes, glTF emissive (radiance)
+/// maps to exitance `E = π·emissive`.
+#[test]
+fn gltf_names_and_emission_units() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    let quads: [[[f32; 3]; 4]; 2] = [
+        [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 0.6, 0.0],
+            [0.0, 0.6, 0.0],
+        ],
+        [
+            [0.0, 0.0, 0.7],
+            [0.0, 0.6, 0.7],
+            [1.0, 0.6, 0.7],
+            [1.0, 0.0, 0.7],
+        ],
+    ];
+    let mut bin: Vec<u8> = Vec::new();
+    for q in &quads {
+        for p in q {
+            for v in p {
+                bin.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    let idx_off = bin.len();
+    for i in [0u32, 1, 2, 0, 2, 3] {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    std::fs::write(d.join("two.bin"), &bin)?;
+    let gltf = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "buffers": [{"uri": "two.bin", "byteLength": bin.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 48, "byteLength": 48},
+            {"buffer": 0, "byteOffset": idx_off, "byteLength": 24}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+             "min": [0.0, 0.0, 0.0], "max": [1.0, 0.6, 0.0]},
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3",
+             "min": [0.0, 0.0, 0.7], "max": [1.0, 0.6, 0.7]},
+            {"bufferView": 2, "componentType": 5125, "count": 6, "type": "SCALAR"}
+        ],
+        "materials": [
+            {"name": "grey", "pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.6, 0.6, 1.0]}},
+            {"name": "lamp", "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0]},
+             "emissiveFactor": [1.0, 0.5, 0.25]}
+        ],
+        "meshes": [
+            {"name": "floor-mesh", "primitives": [{"attributes": {"POSITION": 0}, "indices": 2, "material": 0}]},
+            {"primitives": [{"attributes": {"POSITION": 1}, "indices": 2, "material": 1}]}
+        ],
+        "nodes": [{"name": "Floor", "mesh": 0}, {"name": "Lamp", "mesh": 1}],
+        "scenes": [{"nodes": [0, 1]}],
+        "scene": 0
+    });
+    std::fs::write(d.join("two.gltf"), serde_json::to_string(&gltf)?)?;
+    let v = solve_json(
+        "two.gltf",
+        &["--no-image", "--max-level", "4", "--eps", "0.01"],
+        d,
+        "g",
+    )?;
+    let names: Vec<&str> = v["surfaces"]
+        .as_array()
+        .context("surfaces")?
+        .iter()
+        .filter_map(|s| s["name"].as_str())
+        .collect();
+    assert_eq!(names, ["Floor", "Lamp"]);
+    let lamp = &v["surfaces"][1];
+    let pi = std::f64::consts::PI;
+    for (c, rad) in [1.0, 0.5, 0.25].into_iter().enumerate() {
+        let e = lamp["emission"][c].as_f64().context("e")?;
+        assert!((e - pi * rad).abs() < 1e-9 * pi, "E = π·emissive");
+    }
+    let f = wavelux::geometry::formfactor::parallel_rectangles(1.0, 0.6, 0.7)?;
+    let floor = radiosity(&v, "Floor");
+    let rho = v["surfaces"][0]["reflectance"][0].as_f64().context("rho")?;
+    assert!((floor[0] - rho * f * pi).abs() < 0.01 * rho * f * pi);
+    Ok(())
+}
