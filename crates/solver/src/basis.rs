@@ -53,7 +53,7 @@ impl BasisKind {
 
 /// A 2D tree basis: `k` functions per cell and axis, two-scale child matrices and
 /// point evaluation on the unit cell.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct TreeBasis {
     kind: BasisKind,
     mra: Alpert,

@@ -619,7 +619,7 @@ pub fn solve_prepared(prep: &Prepared) -> Result<Solution, SolverError> {
         stats.bytes = system.h.bytes()
             + links.capacity() * std::mem::size_of::<LinkRec>()
             + links.iter().map(|l| l.block.capacity() * 8).sum::<usize>();
-        let basis = TreeBasis::new(cfg.basis)?;
+        let basis = prep.basis.clone();
         prev = Some(Solution::new(
             patches.clone(),
             prep.patches.by_surface.clone(),

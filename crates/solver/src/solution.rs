@@ -67,7 +67,7 @@ pub struct Solution {
     pub by_surface: Vec<Vec<usize>>,
     /// The system (hierarchy and links) that was solved.
     pub system: System,
-    basis: TreeBasisHandle,
+    basis: TreeBasis,
     /// Radiosity coefficients at every node (pulled), per channel.
     pub node_b: [Vec<f64>; 3],
     /// Irradiance coefficients at every leaf, per channel.
@@ -78,19 +78,6 @@ pub struct Solution {
     pub stats: Statistics,
     /// Convergence records of the (last stage's) channel solves.
     pub convergence: Vec<Convergence>,
-}
-
-#[derive(Debug)]
-struct TreeBasisHandle(TreeBasis);
-
-impl Clone for TreeBasisHandle {
-    fn clone(&self) -> Self {
-        // Rebuilding cannot fail for a kind that was built once.
-        match TreeBasis::new(self.0.kind()) {
-            Ok(b) => Self(b),
-            Err(_) => unreachable!("a basis kind that was built once builds again"),
-        }
-    }
 }
 
 impl Solution {
@@ -147,7 +134,7 @@ impl Solution {
             patches,
             by_surface,
             system,
-            basis: TreeBasisHandle(basis),
+            basis,
             node_b,
             leaf_h,
             energy,
@@ -158,7 +145,7 @@ impl Solution {
 
     /// The basis.
     pub fn basis(&self) -> &TreeBasis {
-        &self.basis.0
+        &self.basis
     }
 
     /// Radiosity (W/m², RGB) at parameter point `(s, t) ∈ [0,1]²` of a patch.
@@ -172,7 +159,7 @@ impl Solution {
         let k = h.keys[leaf];
         let reg = k.region();
         let mut vals = [0.0; 16];
-        self.basis.0.eval(
+        self.basis.eval(
             (s.clamp(0.0, 1.0) - reg.s0) / reg.h,
             (t.clamp(0.0, 1.0) - reg.t0) / reg.h,
             &mut vals[..n],

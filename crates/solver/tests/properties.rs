@@ -353,7 +353,10 @@ fn multigrid_loop_and_visibility_modes() {
     assert_eq!(mg.stats.stages, 3);
     for s in 0..scene.surfaces.len() {
         let (a, b) = (direct.surface_average(s)[0], mg.surface_average(s)[0]);
-        assert!((a - b).abs() < 2e-2 * a.abs().max(1e-12), "surface {s}: {a} vs {b}");
+        assert!(
+            (a - b).abs() < 2e-2 * a.abs().max(1e-12),
+            "surface {s}: {a} vs {b}"
+        );
     }
     let bf = solve(
         &scene,
