@@ -9,6 +9,7 @@ pub mod ziegler_3_1_4;
 use crate::report::Report;
 use crate::reproduce::Ctx;
 
+mod speed_accuracy;
 mod virtual_mesh_fig4;
 mod ziegler_4_1;
 mod ziegler_4_2;
@@ -57,6 +58,13 @@ pub fn all() -> Vec<Reproduction> {
             seed_file: "004_cb5b08859768bf36.txt",
             title: "Picard vs GMRES vs CGNR on the box scenes (Haar, m = 5)",
             run: ziegler_4_2::run,
+        },
+        Reproduction {
+            id: "speed-accuracy",
+            source: "issue: speed vs accuracy of every method against the path tracer",
+            seed_file: "003_fdfe6675de3bf6ad.txt",
+            title: "Error vs wall time: wavelet bases × ε × levels and the path tracer",
+            run: speed_accuracy::run,
         },
     ]
 }
