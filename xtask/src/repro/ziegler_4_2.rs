@@ -33,7 +33,7 @@ const PAPER_POTENTIAL: [f64; 2] = [2_516_580.0, 10_066_320.0];
 /// with ours (smoothness of ρ·G·V times √(|R||E|)) ε = 1e-4 refines almost every pair
 /// to level 5 (≈ 10⁷ links), so we use the threshold that gives link counts of the
 /// thesis's order (measured: ~10⁵ non-standard links at m = 5).
-const OUR_EPS: f64 = 1e-3;
+const OUR_EPS: f64 = 3e-4;
 
 struct Case {
     label: &'static str,
@@ -310,7 +310,7 @@ choice documented there), refined links top-down with the kernel-smoothness orac
 difference of kernel samples at the two interval midpoints along each axis, averaged over \
 the other three axes, maximum over axes, times √(|R||E|), times the receiver's ρ as in \
 Ziegler's F = R G — his link counts differ between high and low ρ, so his estimate \
-includes ρ; ε = 1e-3, see below), up to level {max_level} \
+includes ρ; ε = 3e-4, see below), up to level {max_level} \
 (Ziegler's m = 5 means 32×32 finest cells), with 3×3 Gauss points per element and one \
 shadow ray per sample pair, and singular Sauter–Schwab rules where elements share an edge \
 (Ziegler avoided such pairs). The hierarchical system (pull → gather → push, the \
@@ -323,7 +323,7 @@ link count is the number of cell pairs whose 15 (16 on level 0) wavelet form fac
 computed: our refined links plus unrefined root links; potential links are \
 patches² × Σ_{{l<m}} 16^l. Deviation: ε. The thesis does not state the normalisation of \
 its estimate; with ours ε = 1e-4 would refine almost every pair of the 3-unit box to the \
-finest level (~10⁷ links at m = 5, beyond this run's budget), so we use ε = 1e-3, which \
+finest level (~10⁷ links at m = 5, beyond this run's budget), so we use ε = 3e-4, which \
 gives link counts of the thesis's order; the convergence comparison depends on the \
 operator's spectrum, which the thresholds barely change."
     )
