@@ -190,20 +190,44 @@ fn choose_view(scene: &Scene, a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow
     Ok(View::new(&auto_camera(scene)?, w, h)?)
 }
 
-/// A camera outside the scene's bounding box looking at its centre.
+/// An automatic camera (scenes without one; `+z` up, the built-in Ziegler scenes'
+/// convention). If rays from a point near the bounding box's `−y` side hit front faces
+/// in all six axis directions the scene is an enclosure and the camera goes there,
+/// looking across; otherwise it looks at the centre from outside.
 fn auto_camera(scene: &Scene) -> anyhow::Result<Camera> {
-    let prims = scene.primitives(&scene.name)?;
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for (_, p) in &prims {
-        let b = p.aabb();
-        lo = lo.min(b.min);
-        hi = hi.max(b.max);
-    }
+    let prims: Vec<_> = scene
+        .primitives(&scene.name)?
+        .into_iter()
+        .map(|(_, p)| p)
+        .collect();
+    let accel = wavelux::geometry::Accel::build(prims)?;
+    let b = accel.bounds();
+    let (lo, hi) = (b.min, b.max);
     let c = 0.5 * (lo + hi);
-    let d = (hi - lo).length().max(1e-12);
-    let eye = c + DVec3::new(0.6, 0.5, 1.0).normalize() * (1.4 * d);
-    Camera::look_at("auto", eye, c, DVec3::Y, 40f64.to_radians(), None)
+    let size = hi - lo;
+    let d = size.length().max(1e-12);
+    let inside_eye = c + DVec3::new(0.0, -0.45 * size.y, 0.1 * size.z);
+    let axes = [DVec3::X, DVec3::Y, DVec3::Z];
+    let enclosed = axes.iter().flat_map(|a| [*a, -*a]).all(|dir| {
+        wavelux::geometry::Ray::new(inside_eye, dir)
+            .ok()
+            .and_then(|r| accel.closest_hit(&r, 0.0, f64::INFINITY))
+            .is_some_and(|h| h.front)
+    });
+    let (eye, target, fov) = if enclosed {
+        (
+            inside_eye,
+            c + DVec3::new(0.0, 0.5 * size.y, -0.15 * size.z),
+            70f64,
+        )
+    } else {
+        (
+            c + DVec3::new(0.35, -1.0, 0.8).normalize() * (1.2 * d),
+            c,
+            45f64,
+        )
+    };
+    Camera::look_at("auto", eye, target, DVec3::Z, fov.to_radians(), None)
         .context("cannot place an automatic camera")
 }
 

@@ -89,7 +89,7 @@ method against the Monte Carlo reference so users can choose their trade."
     let (ref_samples, ref_spp, img) = if quick {
         (100_000u64, 8usize, 48usize)
     } else {
-        (400_000, 16, 96)
+        (4_000_000, 48, 96)
     };
     let eps_list: &[f64] = if quick {
         &[0.1, 0.03]
@@ -105,9 +105,9 @@ method against the Monte Carlo reference so users can choose their trade."
     let pt_samples: &[u64] = if quick {
         &[256, 1024, 4096]
     } else {
-        &[256, 1024, 4096, 16384, 65536, 262_144]
+        &[256, 1024, 4096, 16384, 65536, 262_144, 1_048_576]
     };
-    let pt_spp: &[usize] = if quick { &[1, 2] } else { &[1, 2, 4, 8] };
+    let pt_spp: &[usize] = if quick { &[1, 2] } else { &[1, 2, 4, 8, 16, 24] };
     report.param("reference samples per surface", ref_samples);
     report.param(
         "reference image",

@@ -1,2 +1,0 @@
-//! Exports of a solution: glTF with baked per-vertex radiosity and per-surface
-//! lightmap EXRs (being built).
