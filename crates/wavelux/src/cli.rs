@@ -113,13 +113,13 @@ pub struct SolveArgs {
     #[arg(long, value_enum, default_value_t = MethodArg::Gather)]
     pub method: MethodArg,
     /// Wavelet basis.
-    #[arg(long, value_enum, default_value_t = BasisArg::Haar)]
+    #[arg(long, value_enum, default_value_t = BasisArg::M3)]
     pub basis: BasisArg,
     /// Refinement threshold (see --oracle for its unit).
-    #[arg(long, default_value_t = 2e-2)]
+    #[arg(long, default_value_t = 1e-2)]
     pub eps: f64,
     /// Deepest element level (0..=20).
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = 2)]
     pub max_level: u8,
     /// Smallest element area (scene units squared).
     #[arg(long, default_value_t = 0.0)]
@@ -174,7 +174,7 @@ pub struct SolveArgs {
     pub no_image: bool,
     /// Monte Carlo samples per surface for the error estimate (0: skip the estimate).
     /// With --method reference: samples per surface of the reference itself.
-    #[arg(long, default_value_t = 16384)]
+    #[arg(long, default_value_t = 65536)]
     pub samples: u64,
 }
 

@@ -25,9 +25,9 @@ struct SurfaceDiff {
 #[derive(Debug, Serialize)]
 struct ResultMetrics {
     kind: &'static str,
-    /// `Σ A |a − b|₁ / Σ A |b|₁` over the surfaces both have.
+    /// `Σ A |a − b|₁ / Σ A |b − E|₁` over the surfaces both have.
     relative_l1: f64,
-    /// Largest per-surface relative difference `|a − b|₁ / |b|₁`.
+    /// Largest per-surface relative difference `|a − b|₁ / |b − E|₁`.
     max_relative: f64,
     /// Largest |z| when the reference has standard errors.
     max_z: Option<f64>,
@@ -136,7 +136,10 @@ fn compare_results(a: &report::Result, b: &report::Result) -> anyhow::Result<Res
         let d: f64 = (0..3)
             .map(|c| (sa.radiosity[c] - sb.radiosity[c]).abs())
             .sum();
-        let n: f64 = sb.radiosity.iter().map(|v| v.abs()).sum();
+        // Relative to the reflected radiosity B − E (emission is exact for every method).
+        let n: f64 = (0..3)
+            .map(|c| (sb.radiosity[c] - sb.emission[c]).abs())
+            .sum();
         num += sb.area * d;
         den += sb.area * n;
         let rel = if n > 0.0 { d / n } else { d };

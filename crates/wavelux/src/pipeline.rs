@@ -501,7 +501,7 @@ fn estimate_error(
         for c in 0..3 {
             let d = (s.radiosity[c] - est.mean[c]).abs();
             num += s.area * d;
-            den += s.area * est.mean[c].abs();
+            den += s.area * (est.mean[c] - s.emission[c]).abs();
             noise += s.area * est.std_error[c];
             if est.std_error[c] > 0.0 {
                 max_z = max_z.max(d / est.std_error[c]);

@@ -96,7 +96,8 @@ pub struct SurfaceResult {
 /// Error estimate against the Monte Carlo check.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ErrorEstimate {
-    /// `Σ_s A_s Σ_c |B_sc − B̂_sc| / Σ_s A_s Σ_c |B̂_sc|` against the check's averages.
+    /// `Σ_s A_s Σ_c |B_sc − B̂_sc| / Σ_s A_s Σ_c |B̂_sc − E_sc|` against the check's
+    /// averages (relative to the reflected radiosity: emitters' `E` is exact).
     pub relative_l1: f64,
     /// The same with the check's standard errors in place of the difference: the noise
     /// floor of `relative_l1`.
