@@ -1,4 +1,4 @@
-//! wavelux-render: cameras, images, final gather and a Monte Carlo reference
+//! wavelux-render: cameras, images, final gather, exports and a Monte Carlo reference
 //! for wavelux radiosity solutions.
 //!
 //! - [`camera`]: pinhole/orthographic views from glTF cameras or an explicit look-at,
@@ -13,7 +13,8 @@
 //!   I/O, error metrics and false-colour error maps; every file is written through a
 //!   temporary file and an atomic rename;
 //! - [`reference`]: a Monte Carlo path tracer for diffuse scenes (the ground truth for
-//!   scenes without closed forms).
+//!   scenes without closed forms);
+//! - [`export`]: glTF export with baked per-vertex radiosity and per-patch lightmaps.
 //!
 //! # Units
 //! Radiosity `B` and emission `E` are exitances in W/m² per RGB channel (the
@@ -22,6 +23,7 @@
 //! `B/π`.
 
 pub mod camera;
+pub mod export;
 pub mod field;
 pub mod image;
 pub mod reference;

@@ -169,6 +169,12 @@ pub struct SolveArgs {
     /// Final-gather rays per pixel sample (0: show the solution directly).
     #[arg(long, default_value_t = 8)]
     pub gather: usize,
+    /// Also export a glTF (+ .bin) with the radiosity baked into vertex colours here.
+    #[arg(long)]
+    pub gltf: Option<PathBuf>,
+    /// Also write per-patch lightmap EXRs of this resolution into OUT/NAME-lightmaps/.
+    #[arg(long)]
+    pub lightmaps: Option<usize>,
     /// Write no image (JSON only).
     #[arg(long)]
     pub no_image: bool,

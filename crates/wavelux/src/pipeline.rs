@@ -419,6 +419,21 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
         outputs.exr = Some(exr.display().to_string());
         outputs.png = Some(png.display().to_string());
     }
+    if let Some(sol) = &solution {
+        let names: Vec<String> = scene.surfaces.iter().map(|s| s.name.clone()).collect();
+        if let Some(g) = &a.gltf {
+            wavelux::render::export::write_gltf(sol, &names, g, 2)
+                .with_context(|| format!("glTF export to {g:?}"))?;
+            outputs.gltf = Some(g.display().to_string());
+        }
+        if let Some(res) = a.lightmaps {
+            let dir = a.out.join(format!("{stem}-lightmaps"));
+            wavelux::render::export::write_lightmaps(sol, &names, &dir, res)?;
+            outputs.lightmaps = Some(dir.display().to_string());
+        }
+    } else if a.gltf.is_some() || a.lightmaps.is_some() {
+        bail!("--gltf and --lightmaps export a wavelet solution; --method reference has none");
+    }
     stats.time_s.write = secs(t_write.elapsed());
     stats.time_s.total = secs(t_start.elapsed());
     stats.peak_memory_bytes = peak_memory();
@@ -612,7 +627,10 @@ fn print_summary(r: &report::Result, sol: Option<&Solution>) {
         println!("    ... {} more in the JSON", r.surfaces.len() - 12);
     }
     let o = &r.outputs;
-    for p in [&o.exr, &o.png, &o.json].into_iter().flatten() {
+    for p in [&o.exr, &o.png, &o.json, &o.gltf, &o.lightmaps]
+        .into_iter()
+        .flatten()
+    {
         println!("  wrote       {p}");
     }
 }

@@ -186,4 +186,10 @@ pub struct Outputs {
     pub png: Option<String>,
     /// This JSON.
     pub json: Option<String>,
+    /// Baked glTF export (`--gltf`).
+    #[serde(default)]
+    pub gltf: Option<String>,
+    /// Lightmap directory (`--lightmaps`).
+    #[serde(default)]
+    pub lightmaps: Option<String>,
 }

@@ -512,3 +512,47 @@ fn gltf_names_and_emission_units() -> Result<()> {
     assert!((floor[0] - rho * f * pi).abs() < 0.01 * rho * f * pi);
     Ok(())
 }
+
+/// `--gltf` and `--lightmaps`: the glTF loads back with the same surface names and
+/// areas; the lightmaps of the furnace read `B = 2`.
+#[test]
+fn gltf_export_and_lightmaps() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    let mut args = vec!["solve", "builtin:white-furnace", "--no-image"];
+    args.extend_from_slice(FAST);
+    args.extend_from_slice(&["--gltf", "baked.gltf", "--lightmaps", "8", "--quiet"]);
+    ok(&args, d)?;
+    let back = wavelux::scene::load(d.join("baked.gltf"))?;
+    let orig = wavelux::scene::builtin::builtin("white-furnace").context("furnace")?;
+    assert_eq!(back.surfaces.len(), orig.surfaces.len());
+    for (a, b) in back.surfaces.iter().zip(&orig.surfaces) {
+        assert_eq!(a.name, b.name);
+        assert!((a.shape.area() - b.shape.area()).abs() < 1e-6);
+    }
+    let maps: Vec<_> = std::fs::read_dir(d.join("out/white-furnace-lightmaps"))?.collect();
+    assert_eq!(maps.len(), 6);
+    for m in maps {
+        let img = wavelux::render::Image::read_exr(&m?.path())?;
+        assert_eq!((img.width, img.height), (8, 8));
+        for p in &img.pixels {
+            assert!((p[0] - 2.0).abs() < 0.02, "{p:?}");
+        }
+    }
+    // The reference has no solution to export.
+    fails(
+        &[
+            "solve",
+            "--method",
+            "reference",
+            "--samples",
+            "10",
+            "--no-image",
+            "--gltf",
+            "x.gltf",
+        ],
+        d,
+        "--gltf",
+    );
+    Ok(())
+}
