@@ -107,7 +107,11 @@ method against the Monte Carlo reference so users can choose their trade."
     } else {
         &[256, 1024, 4096, 16384, 65536, 262_144, 1_048_576]
     };
-    let pt_spp: &[usize] = if quick { &[1, 2] } else { &[1, 2, 4, 8, 16, 24] };
+    let pt_spp: &[usize] = if quick {
+        &[1, 2]
+    } else {
+        &[1, 2, 4, 8, 16, 24]
+    };
     report.param("reference samples per surface", ref_samples);
     report.param(
         "reference image",
