@@ -88,24 +88,10 @@ impl BezierPatch {
         me.marginal = Arc::new(Cumulative::new(0.0, 1.0, S_PANELS, ORDER, |s| me.m(s)));
         Ok(me)
     }
-    /// The same patch with the equal-area map.
-    #[must_use]
-    pub fn equal_area(&self) -> Self {
-        self.with_kind(ParamKind::EqualArea)
-    }
-    /// The same patch with the natural (Bézier parameter) map.
-    #[must_use]
-    pub fn natural(&self) -> Self {
-        self.with_kind(ParamKind::Natural)
-    }
-    /// The same patch with the given map.
-    #[must_use]
-    pub fn with_kind(&self, kind: ParamKind) -> Self {
-        Self {
-            kind,
-            ..self.clone()
-        }
-    }
+    crate::map_kind_switch!(
+        "The same patch with the equal-area map.",
+        "The same patch with the natural (Bézier parameter) map."
+    );
     /// Control net (`[i][j]`, i along s, j along t), world coordinates.
     pub fn control_points(&self) -> &[[DVec3; 4]; 4] {
         &self.ctrl

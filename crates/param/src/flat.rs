@@ -84,24 +84,10 @@ impl Revolution {
             kind: ParamKind::EqualArea,
         })
     }
-    /// The same patch with the equal-area map.
-    #[must_use]
-    pub fn equal_area(&self) -> Self {
-        self.with_kind(ParamKind::EqualArea)
-    }
-    /// The same patch with the natural map `(θ, t)`.
-    #[must_use]
-    pub fn natural(&self) -> Self {
-        self.with_kind(ParamKind::Natural)
-    }
-    /// The same patch with the given map.
-    #[must_use]
-    pub fn with_kind(&self, kind: ParamKind) -> Self {
-        Self {
-            kind,
-            ..self.clone()
-        }
-    }
+    crate::map_kind_switch!(
+        "The same patch with the equal-area map.",
+        "The same patch with the natural map `(θ, t)`."
+    );
     /// Placement (axis = local z).
     pub fn frame(&self) -> &Frame {
         &self.frame
@@ -257,24 +243,10 @@ impl GeneralizedCylinder {
             kind: ParamKind::EqualArea,
         })
     }
-    /// The same patch with the equal-area map.
-    #[must_use]
-    pub fn equal_area(&self) -> Self {
-        self.with_kind(ParamKind::EqualArea)
-    }
-    /// The same patch with the natural map `(θ, φ)`.
-    #[must_use]
-    pub fn natural(&self) -> Self {
-        self.with_kind(ParamKind::Natural)
-    }
-    /// The same patch with the given map.
-    #[must_use]
-    pub fn with_kind(&self, kind: ParamKind) -> Self {
-        Self {
-            kind,
-            ..self.clone()
-        }
-    }
+    crate::map_kind_switch!(
+        "The same patch with the equal-area map.",
+        "The same patch with the natural map `(θ, φ)`."
+    );
     /// Placement.
     pub fn frame(&self) -> &Frame {
         &self.frame
@@ -449,24 +421,10 @@ impl TangentDevelopable {
             kind: ParamKind::EqualArea,
         })
     }
-    /// The same patch with the equal-area map.
-    #[must_use]
-    pub fn equal_area(&self) -> Self {
-        self.with_kind(ParamKind::EqualArea)
-    }
-    /// The same patch with the natural map `(θ, φ)`.
-    #[must_use]
-    pub fn natural(&self) -> Self {
-        self.with_kind(ParamKind::Natural)
-    }
-    /// The same patch with the given map.
-    #[must_use]
-    pub fn with_kind(&self, kind: ParamKind) -> Self {
-        Self {
-            kind,
-            ..self.clone()
-        }
-    }
+    crate::map_kind_switch!(
+        "The same patch with the equal-area map.",
+        "The same patch with the natural map `(θ, φ)`."
+    );
     /// Placement.
     pub fn frame(&self) -> &Frame {
         &self.frame

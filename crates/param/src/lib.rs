@@ -25,6 +25,33 @@
 //! All lengths are in world units and all maps are scale covariant (tested for sizes
 //! 1e-4 … 1e4).
 
+/// Generates the `equal_area`, `natural` and `with_kind` accessors shared by every
+/// surface that stores its map as a `kind: ParamKind` field (one definition instead of a
+/// copy per surface). The two literals are the doc lines of `equal_area` and `natural`.
+macro_rules! map_kind_switch {
+    ($equal_doc:literal, $natural_doc:literal) => {
+        #[doc = $equal_doc]
+        #[must_use]
+        pub fn equal_area(&self) -> Self {
+            self.with_kind(ParamKind::EqualArea)
+        }
+        #[doc = $natural_doc]
+        #[must_use]
+        pub fn natural(&self) -> Self {
+            self.with_kind(ParamKind::Natural)
+        }
+        /// The same patch with the given map.
+        #[must_use]
+        pub fn with_kind(&self, kind: ParamKind) -> Self {
+            Self {
+                kind,
+                ..self.clone()
+            }
+        }
+    };
+}
+pub(crate) use map_kind_switch;
+
 mod bezier_patch;
 mod curves;
 mod direction;

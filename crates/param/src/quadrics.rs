@@ -45,24 +45,10 @@ impl Cylinder {
             kind: ParamKind::EqualArea,
         })
     }
-    /// The same patch with the equal-area map.
-    #[must_use]
-    pub fn equal_area(&self) -> Self {
-        self.with_kind(ParamKind::EqualArea)
-    }
-    /// The same patch with the natural map (identical for a cylinder).
-    #[must_use]
-    pub fn natural(&self) -> Self {
-        self.with_kind(ParamKind::Natural)
-    }
-    /// The same patch with the given map.
-    #[must_use]
-    pub fn with_kind(&self, kind: ParamKind) -> Self {
-        Self {
-            kind,
-            ..self.clone()
-        }
-    }
+    crate::map_kind_switch!(
+        "The same patch with the equal-area map.",
+        "The same patch with the natural map (identical for a cylinder)."
+    );
     /// Placement (axis = local z, θ measured from local x).
     pub fn frame(&self) -> &Frame {
         &self.frame
@@ -180,24 +166,10 @@ impl Cone {
             kind: ParamKind::EqualArea,
         })
     }
-    /// The same patch with the equal-area map `(θ, φ²)`.
-    #[must_use]
-    pub fn equal_area(&self) -> Self {
-        self.with_kind(ParamKind::EqualArea)
-    }
-    /// The same patch with the natural map `(θ, φ)`.
-    #[must_use]
-    pub fn natural(&self) -> Self {
-        self.with_kind(ParamKind::Natural)
-    }
-    /// The same patch with the given map.
-    #[must_use]
-    pub fn with_kind(&self, kind: ParamKind) -> Self {
-        Self {
-            kind,
-            ..self.clone()
-        }
-    }
+    crate::map_kind_switch!(
+        "The same patch with the equal-area map `(θ, φ²)`.",
+        "The same patch with the natural map `(θ, φ)`."
+    );
     /// Placement: apex at the origin, axis = local z.
     pub fn frame(&self) -> &Frame {
         &self.frame
@@ -370,24 +342,10 @@ impl Sphere {
         use std::f64::consts::PI;
         Self::new(frame, radius, (-PI, PI), (-FRAC_PI_2, FRAC_PI_2))
     }
-    /// The same patch with the equal-area map `(θ, sin φ)`.
-    #[must_use]
-    pub fn equal_area(&self) -> Self {
-        self.with_kind(ParamKind::EqualArea)
-    }
-    /// The same patch with the natural map `(θ, φ)`.
-    #[must_use]
-    pub fn natural(&self) -> Self {
-        self.with_kind(ParamKind::Natural)
-    }
-    /// The same patch with the given map.
-    #[must_use]
-    pub fn with_kind(&self, kind: ParamKind) -> Self {
-        Self {
-            kind,
-            ..self.clone()
-        }
-    }
+    crate::map_kind_switch!(
+        "The same patch with the equal-area map `(θ, sin φ)`.",
+        "The same patch with the natural map `(θ, φ)`."
+    );
     /// Placement (centre = origin, poles on local ±z).
     pub fn frame(&self) -> &Frame {
         &self.frame

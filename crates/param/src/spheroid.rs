@@ -135,24 +135,10 @@ impl Spheroid {
         )
     }
 
-    /// The same patch with the equal-area map `(θ, G(sin φ))`.
-    #[must_use]
-    pub fn equal_area(&self) -> Self {
-        self.with_kind(ParamKind::EqualArea)
-    }
-    /// The same patch with the natural map `(θ, φ)`.
-    #[must_use]
-    pub fn natural(&self) -> Self {
-        self.with_kind(ParamKind::Natural)
-    }
-    /// The same patch with the given map.
-    #[must_use]
-    pub fn with_kind(&self, kind: ParamKind) -> Self {
-        Self {
-            kind,
-            ..self.clone()
-        }
-    }
+    crate::map_kind_switch!(
+        "The same patch with the equal-area map `(θ, G(sin φ))`.",
+        "The same patch with the natural map `(θ, φ)`."
+    );
     /// Placement (centre = origin, polar axis = local z).
     pub fn frame(&self) -> &Frame {
         &self.frame
