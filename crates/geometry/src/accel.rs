@@ -14,7 +14,14 @@
 //!   planar (they cannot occlude a segment that starts on them) and, when curved, only
 //!   hits within `SELF_EPS_REL · D` (1e-6 D) of an endpoint are ignored, so a torus or
 //!   a Bézier patch still shadows itself;
-//! - BVH boxes are padded by `1e-5 D + 1e-6 max|x|` to absorb the f32 traversal.
+//! - the f32 BVH is built and traversed in a normalised frame `x' = (x − c)·s` (`c` the
+//!   box centre, `s` the power of two with `D·s ∈ (½, 1]`), so f32 rounding is relative
+//!   to the scene at every scale; f32 boxes are padded by `1e-5 D·s + 1e-6` (normalised
+//!   units) to absorb it;
+//! - each f32 ray starts where the f64 ray enters the (padded) scene box, backed off by
+//!   [`TRAVERSAL_BACKOFF`] normalised units: obvhs' node test clamps entry distances to
+//!   an absolute `1e-4` (`cwbvh::node::EPSILON`), which would otherwise cull every box
+//!   within `1e-4` of the origin — the whole scene when it is ~1e-4 units small.
 //!
 //! Planar primitives are dilated by 1e-9 of their size and triangles are watertight, so
 //! rays through shared edges and corners do not leak.
@@ -37,6 +44,9 @@ use crate::primitive::{Aabb, Hit, PrimId, Primitive, Ray, Triangle};
 pub const EPS_REL: f64 = 1e-9;
 /// Relative self-hit epsilon for curved primitives named in `ignore`.
 pub const SELF_EPS_REL: f64 = 1e-6;
+/// Distance (normalised units, scene diagonal ∈ (½, 1]) by which f32 rays start before
+/// the query interval: ten times obvhs' absolute node-entry clamp of `1e-4`.
+pub const TRAVERSAL_BACKOFF: f64 = 1e-3;
 
 #[derive(Debug, Clone, Copy)]
 enum Slot {
@@ -64,15 +74,83 @@ pub struct Accel {
     slots: Vec<Slot>,
     bounds: Aabb,
     diag: f64,
+    frame: Frame,
 }
 
-fn to_f32_box(b: &Aabb, pad: f64) -> FAabb {
-    let lo = b.min - DVec3::splat(pad);
-    let hi = b.max + DVec3::splat(pad);
-    FAabb::new(
-        Vec3A::new(lo.x as f32, lo.y as f32, lo.z as f32),
-        Vec3A::new(hi.x as f32, hi.y as f32, hi.z as f32),
-    )
+/// The normalised f32 traversal frame `x' = (x − centre)·scale` (module docs).
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    centre: DVec3,
+    scale: f64,
+    /// Box padding in normalised units.
+    pad: f64,
+}
+
+impl Frame {
+    fn new(bounds: &Aabb, diag: f64) -> Frame {
+        let scale = if diag > 0.0 && diag.is_finite() {
+            // Power of two: D·scale ∈ (½, 1]; exact scaling.
+            2f64.powi(-(diag.log2().ceil() as i32))
+        } else {
+            1.0
+        };
+        Frame {
+            centre: 0.5 * (bounds.min + bounds.max),
+            scale,
+            pad: 1e-5 * diag * scale + 1e-6,
+        }
+    }
+
+    fn f32_box(&self, b: &Aabb) -> FAabb {
+        let lo = (b.min - self.centre) * self.scale - DVec3::splat(self.pad);
+        let hi = (b.max - self.centre) * self.scale + DVec3::splat(self.pad);
+        FAabb::new(
+            Vec3A::new(lo.x as f32, lo.y as f32, lo.z as f32),
+            Vec3A::new(hi.x as f32, hi.y as f32, hi.z as f32),
+        )
+    }
+
+    /// The f32 ray covering `t ∈ [tmin, tmax]` of `ray`, clipped to the padded scene box
+    /// `bounds`, and the f64 parameter `t_start` its origin was taken at (backed off by
+    /// [`TRAVERSAL_BACKOFF`]); `None` if the interval misses the box.
+    fn ray(&self, bounds: &Aabb, ray: &Ray, tmin: f64, tmax: f64) -> Option<(FRay, f64)> {
+        let pad = self.pad / self.scale;
+        let (mut t0, mut t1) = (tmin, tmax);
+        for a in 0..3 {
+            let (o, d) = (ray.origin[a], ray.dir[a]);
+            let (lo, hi) = (bounds.min[a] - pad, bounds.max[a] + pad);
+            if d == 0.0 {
+                if o < lo || o > hi {
+                    return None;
+                }
+            } else {
+                let (ta, tb) = ((lo - o) / d, (hi - o) / d);
+                t0 = t0.max(ta.min(tb));
+                t1 = t1.min(ta.max(tb));
+            }
+        }
+        if t0 > t1 || t0.is_nan() || t1.is_nan() {
+            return None;
+        }
+        let start = (ray.origin + ray.dir * t0 - self.centre) * self.scale;
+        let o = start - ray.dir * TRAVERSAL_BACKOFF;
+        let d = ray.dir;
+        let t_max = self.param(t1, t0) * (1.0 + 1e-5) + self.pad;
+        Some((
+            FRay::new(
+                Vec3A::new(o.x as f32, o.y as f32, o.z as f32),
+                Vec3A::new(d.x as f32, d.y as f32, d.z as f32),
+                0.0,
+                t_max as f32,
+            ),
+            t0,
+        ))
+    }
+
+    /// The f32 ray parameter of the f64 ray parameter `t` (origin taken at `t_start`).
+    fn param(&self, t: f64, t_start: f64) -> f64 {
+        (t - t_start) * self.scale + TRAVERSAL_BACKOFF
+    }
 }
 
 impl Accel {
@@ -117,6 +195,7 @@ impl Accel {
         }
         let diag = bounds.diagonal().length();
         let planar: Vec<bool> = prims.iter().map(Primitive::is_planar).collect();
+        let frame = Frame::new(&bounds, diag);
         if prims.is_empty() {
             return Ok(Accel {
                 prims,
@@ -125,11 +204,10 @@ impl Accel {
                 slots: Vec::new(),
                 bounds,
                 diag,
+                frame,
             });
         }
-        let maxc = bounds.min.abs().max(bounds.max.abs()).max_element();
-        let pad = 1e-5 * diag + 1e-6 * maxc;
-        let fboxes: Vec<FAabb> = boxes.iter().map(|b| to_f32_box(b, pad)).collect();
+        let fboxes: Vec<FAabb> = boxes.iter().map(|b| frame.f32_box(b)).collect();
         let bvh = build_cwbvh(&fboxes, params, &mut Duration::default());
         let slots = bvh
             .primitive_indices
@@ -146,6 +224,7 @@ impl Accel {
             slots,
             bounds,
             diag,
+            frame,
         })
     }
 
@@ -174,21 +253,6 @@ impl Accel {
         EPS_REL * self.diag
     }
 
-    fn fray(ray: &Ray, tmax: f64) -> FRay {
-        let o = ray.origin;
-        let d = ray.dir;
-        FRay::new(
-            Vec3A::new(o.x as f32, o.y as f32, o.z as f32),
-            Vec3A::new(d.x as f32, d.y as f32, d.z as f32),
-            0.0,
-            if tmax.is_finite() {
-                (tmax * (1.0 + 1e-5)) as f32 + 1e-30
-            } else {
-                f32::INFINITY
-            },
-        )
-    }
-
     /// Closest hit with `t ∈ [tmin, tmax]` (use `tmax = f64::INFINITY` for an unbounded ray).
     pub fn closest_hit(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
@@ -196,7 +260,8 @@ impl Accel {
         let mut best_t = tmax;
         let mut rh = RayHit::none();
         let slack = 1e-5 * self.diag;
-        bvh.ray_traverse(Self::fray(ray, tmax), &mut rh, |_, slot| {
+        let (fray, t_start) = self.frame.ray(&self.bounds, ray, tmin, tmax)?;
+        bvh.ray_traverse(fray, &mut rh, |_, slot| {
             let hit = match self.slots[slot] {
                 Slot::Tri(v, id) => triangle_raw(&v, ray, tmin, best_t).map(|(t, b, c)| {
                     let tri = Triangle { v };
@@ -217,7 +282,7 @@ impl Accel {
                 Some(h) if h.t < best_t || best.is_none() => {
                     best_t = h.t;
                     best = Some(h);
-                    (h.t + slack) as f32
+                    self.frame.param(h.t + slack, t_start) as f32
                 }
                 _ => f32::INFINITY,
             }
@@ -246,7 +311,10 @@ impl Accel {
             return false;
         }
         let is_ignored = |id: PrimId| ignore[0] == Some(id) || ignore[1] == Some(id);
-        !bvh.ray_traverse_miss(Self::fray(&ray, len), |_, slot| {
+        let Some((fray, _)) = self.frame.ray(&self.bounds, &ray, 0.0, len) else {
+            return false;
+        };
+        !bvh.ray_traverse_miss(fray, |_, slot| {
             let blocked = match self.slots[slot] {
                 Slot::Tri(v, id) => !is_ignored(id) && triangle_raw(&v, &ray, t0, t1).is_some(),
                 Slot::Other(id) => {

@@ -356,3 +356,83 @@ fn exact_sphere_closure_with_trimmed_patches_and_visibility() {
     }
     assert_eq!(blocked, 0, "points inside a sphere all see each other");
 }
+
+/// Random triangles and parallelograms in a box of size `scale` centred at
+/// `scale · (3, −2, 1)` (an off-origin frame), plus query segments: long random ones and
+/// short ones ending just past (or just short of) a random primitive, so that blockers
+/// close to an end point are exercised.
+fn scaled_scene_and_queries(seed: u64, scale: f64) -> (Vec<Primitive>, Vec<(DVec3, DVec3)>) {
+    let mut r = Pcg64::seed_from_u64(seed);
+    let off = DVec3::new(3.0, -2.0, 1.0) * scale;
+    let mut prims: Vec<Primitive> = Vec::new();
+    let mut centres = Vec::new();
+    for k in 0..60 {
+        let c = rv(&mut r, -1.0, 1.0);
+        let s = r.random_range(0.02..0.3);
+        let (a, b, d) = (rv(&mut r, -s, s), rv(&mut r, -s, s), rv(&mut r, -s, s));
+        let prim: Option<Primitive> = if k % 4 == 0 {
+            Parallelogram::new(off + c * scale, a * scale, b * scale)
+                .ok()
+                .map(Into::into)
+        } else {
+            Triangle::new(
+                off + (c + a) * scale,
+                off + (c + b) * scale,
+                off + (c + d) * scale,
+            )
+            .ok()
+            .map(Into::into)
+        };
+        if let Some(p) = prim {
+            centres.push(match &p {
+                Primitive::Triangle(t) => (t.v[0] + t.v[1] + t.v[2]) / 3.0,
+                _ => off + (c + 0.5 * (a + b)) * scale,
+            });
+            prims.push(p);
+        }
+    }
+    let mut pairs = Vec::new();
+    for _ in 0..150 {
+        pairs.push((
+            off + rv(&mut r, -1.2, 1.2) * scale,
+            off + rv(&mut r, -1.2, 1.2) * scale,
+        ));
+    }
+    for _ in 0..150 {
+        // A short segment through (or near) a primitive's centre: blocker at ~1e-5 to
+        // 1e-2 of the scene size from the start point.
+        let c = centres[r.random_range(0..centres.len())];
+        let dir = rv(&mut r, -1.0, 1.0).normalize_or(DVec3::Z);
+        let before = 10f64.powf(r.random_range(-5.0..-2.0)) * scale;
+        let after = r.random_range(-0.5..2.0) * before;
+        pairs.push((c - dir * before, c + dir * after));
+    }
+    (prims, pairs)
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(12))]
+    /// Visibility must not depend on the unit of length: the f32 BVH traversal runs in a
+    /// normalised frame, so occlusion and closest hits equal brute force (f64) from
+    /// micro- to mega-scale scenes.
+    #[test]
+    fn occlusion_equals_brute_force_at_every_scale(
+        seed in 0u64..1_000_000,
+        exp in proptest::sample::select(vec![-6i32, -4, 0, 4, 6]),
+    ) {
+        let scale = 10f64.powi(exp);
+        let (prims, pairs) = scaled_scene_and_queries(seed, scale);
+        let acc = Accel::build(prims).unwrap();
+        let mut n_occ = 0;
+        for (k, (p, q)) in pairs.iter().enumerate() {
+            let brute = acc.occluded_brute(*p, *q, [None, None]);
+            proptest::prop_assert_eq!(acc.occluded(*p, *q, [None, None]), brute, "pair {}", k);
+            n_occ += usize::from(brute);
+            let ray = Ray::new(*p, *q - *p).unwrap();
+            let a = acc.closest_hit(&ray, 0.0, f64::INFINITY);
+            let b = acc.closest_hit_brute(&ray, 0.0, f64::INFINITY);
+            proptest::prop_assert_eq!(a.map(|h| h.prim), b.map(|h| h.prim), "closest, pair {}", k);
+        }
+        proptest::prop_assert!(n_occ > 20, "scene should occlude some segments: {}", n_occ);
+    }
+}
