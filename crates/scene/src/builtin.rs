@@ -608,11 +608,20 @@ pub const BUILTIN_NAMES: &[&str] = &[
     "ziegler-box-occluded-low-a",
     "ziegler-box-occluded-low-b",
     "white-furnace",
+    "architecture",
+    "quadric-teapot",
+    "chess-set",
 ];
 
 /// A built-in scene by name (see [`BUILTIN_NAMES`]); `white-furnace` uses `E = 1`,
-/// `ρ = 0.5`. Returns `None` for unknown names.
+/// `ρ = 0.5`. The VirtualMesh §6 scenes also take parameters and a suffix (see
+/// [`crate::virtual_mesh::by_name`]): `architecture-<bays>x<storeys>`,
+/// `chess-set-<files>`, and `<scene>-tessellated` for the tessellated baseline.
+/// Returns `None` for unknown names.
 pub fn builtin(name: &str) -> Option<Scene> {
+    if let Some(s) = crate::virtual_mesh::by_name(name) {
+        return Some(s);
+    }
     match name {
         "cornell-box" => Some(cornell_box()),
         "ziegler-unoccluded" => Some(unoccluded()),

@@ -10,7 +10,11 @@
 //! - [`gltf_load`]: glTF 2.0 (`.gltf`, `.glb`) loader;
 //! - [`native`]: the native TOML format (documented in `docs/scene-format.md`);
 //! - [`analytic`]: trimmed analytic patches on `wavelux-param`'s equal-area maps;
-//! - [`builtin`]: Cornell box, Ziegler §4.1.1 and §4.2.1 scenes, white furnace.
+//! - [`builtin`]: Cornell box, Ziegler §4.1.1 and §4.2.1 scenes, white furnace, and
+//!   the VirtualMesh §6 scenes by name;
+//! - [`virtual_mesh`]: VirtualMesh §6's test scenes — architecture (complex polygons),
+//!   quadric teapot, chess set;
+//! - [`tessellated`]: their tessellated baselines (VirtualMesh §6.1–6.2).
 //!
 //! # Radiometric conventions
 //!
@@ -37,6 +41,8 @@ pub mod medium;
 pub mod native;
 pub mod scene;
 pub mod shape;
+pub mod tessellated;
+pub mod virtual_mesh;
 
 use std::path::Path;
 
@@ -53,6 +59,7 @@ pub use scene::{DefaultValue, MaterialId, Scene, Sidedness, Surface};
 pub use shape::{
     BezierPatch, Loop, LoopEdge, MeshElement, PlaneFrame, PolygonShape, Shape, TriangleMesh,
 };
+pub use tessellated::{TessellateOptions, primitive_count, tessellated};
 
 /// Loads a scene file, choosing the loader by extension: `.gltf`/`.glb` (glTF 2.0 with
 /// default [`GltfOptions`]) or `.toml` (native format).

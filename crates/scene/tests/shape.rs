@@ -209,6 +209,7 @@ fn prim_area(p: &wavelux_geometry::Primitive) -> f64 {
         P::Triangle(t) => t.area(),
         P::Parallelogram(q) => q.area(),
         P::Polygon(q) => q.area(),
+        P::Trimmed(q) => q.area(),
         other => panic!("unexpected {other:?}"),
     }
 }
