@@ -17,7 +17,10 @@
 //!   rules for touching elements, visibility in quadrature or fractional), oracle;
 //! - [`hierarchy`]: nodes, links, refinement, the compiled level-ordered hierarchy;
 //! - [`system`]: matrix-free `K`, `Kᵀ` and Gauss–Seidel sweeps (rayon, deterministic);
-//! - [`solution`]: [`Solution`], [`Energy`], [`Statistics`].
+//! - [`solution`]: [`Solution`], [`Energy`], [`Statistics`];
+//! - [`standard`]: the standard decomposition of the same links (tree wavelet basis,
+//!   one assembled sparse matrix; Ziegler §2.2.3, Glossy §3.5), chosen by
+//!   [`SolverConfig::decomposition`].
 //!
 //! Entry point: [`solve`] with a [`SolverConfig`].
 
@@ -25,6 +28,7 @@ pub mod basis;
 pub mod error;
 pub mod hierarchy;
 pub mod solution;
+pub mod standard;
 pub mod support;
 pub mod system;
 pub mod transfer;
@@ -45,6 +49,7 @@ pub use basis::{BasisKind, TreeBasis};
 pub use error::SolverError;
 pub use hierarchy::{Hierarchy, LinkRec, NodeKey, Oracle, RefineParams, SplitPolicy};
 pub use solution::{Energy, Solution, Statistics};
+pub use standard::{Decomposition, StandardSystem};
 pub use support::{Patch, PatchSet, Side, Support, SupportMap, build_patches};
 pub use system::System;
 pub use transfer::{TransferCtx, TransferOptions, Visibility};
@@ -115,6 +120,10 @@ pub struct SolverConfig {
     pub tolerance: f64,
     /// Optional refine–solve loop.
     pub multigrid: Option<Multigrid>,
+    /// Wavelet decomposition the linear method iterates on (same links and solution
+    /// up to rounding). With [`Decomposition::Standard`] the assembly of the standard
+    /// operator counts into [`Statistics::time_refine`].
+    pub decomposition: Decomposition,
 }
 
 impl Default for SolverConfig {
@@ -136,6 +145,7 @@ impl Default for SolverConfig {
             max_iterations: 200,
             tolerance: 1e-10,
             multigrid: None,
+            decomposition: Decomposition::NonStandard,
         }
     }
 }
@@ -579,6 +589,10 @@ pub fn solve_prepared(prep: &Prepared) -> Result<Solution, SolverError> {
         links = new_links;
         let h = Hierarchy::compile(prep.basis.n(), patches.len(), &links);
         let system = System::new(h, &prep.basis, patches);
+        let standard = match cfg.decomposition {
+            Decomposition::Standard => Some(StandardSystem::from_system(&system, &prep.basis)?),
+            _ => None,
+        };
         stats.time_refine += t_ref.elapsed();
         stats.refined_links += counts.refined;
         stats.oracle_evals += counts.oracle_evals;
@@ -592,15 +606,25 @@ pub fn solve_prepared(prep: &Prepared) -> Result<Solution, SolverError> {
             let x0 = prev
                 .as_ref()
                 .map(|p| project_solution(p, &system, &prep.basis, ch));
-            let (x, c) = solve_channel(
-                &system,
-                ch,
-                cfg.linear_method,
-                cfg.max_iterations,
-                cfg.tolerance,
-                x0,
-                None,
-            )?;
+            let (x, c) = match &standard {
+                Some(s) => s.solve_channel(
+                    ch,
+                    cfg.linear_method,
+                    cfg.max_iterations,
+                    cfg.tolerance,
+                    x0,
+                    None,
+                )?,
+                None => solve_channel(
+                    &system,
+                    ch,
+                    cfg.linear_method,
+                    cfg.max_iterations,
+                    cfg.tolerance,
+                    x0,
+                    None,
+                )?,
+            };
             stats.iterations.push(c.iterations.len() - 1);
             conv.push(c);
             leaf_b[ch] = x;
@@ -609,6 +633,7 @@ pub fn solve_prepared(prep: &Prepared) -> Result<Solution, SolverError> {
             leaf_b[1] = leaf_b[0].clone();
             leaf_b[2] = leaf_b[0].clone();
         }
+        drop(standard);
         stats.time_solve += t_sol.elapsed();
         stats.stages = stage + 1;
         stats.elements = system.h.node_count();
