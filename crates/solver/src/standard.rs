@@ -69,6 +69,9 @@ pub enum Decomposition {
 
 const NONE: u32 = u32::MAX;
 
+/// Dense blocks keyed by basis block (or node), in key order.
+type Keyed = Vec<(u32, Vec<f64>)>;
+
 /// Two-scale data of the 2D tree basis: scaling (`M_c`, `n × n`) and wavelet (`W_c`,
 /// `3n × n`) matrices per child position `c = cy·2 + cx`, both `[parent_row * n +
 /// child_function]`.
@@ -241,7 +244,10 @@ impl<'a> StandardSystem<'a> {
                 Some(_) => {}
             }
         }
-        let patch_rho: Vec<[f64; 3]> = patch_rho.into_iter().map(|r| r.unwrap_or([0.0; 3])).collect();
+        let patch_rho: Vec<[f64; 3]> = patch_rho
+            .into_iter()
+            .map(|r| r.unwrap_or([0.0; 3]))
+            .collect();
         let nn = h.node_count();
         let mut blocks = Vec::new();
         let mut scal_block = vec![NONE; nn];
@@ -306,7 +312,7 @@ impl<'a> StandardSystem<'a> {
         scal_len: usize,
         wav_len: usize,
         lift: impl Fn(usize, &[f64], &mut [f64], &mut [f64]),
-    ) -> Vec<(u32, Vec<f64>)> {
+    ) -> Keyed {
         let h = &self.sys.h;
         let mut done: BTreeMap<u32, Vec<f64>> = BTreeMap::new();
         // Children have larger node indices than their parents (level order), so the
@@ -336,7 +342,7 @@ impl<'a> StandardSystem<'a> {
         let receivers: Vec<usize> = (0..nn)
             .filter(|&r| h.recv_offsets[r + 1] > h.recv_offsets[r])
             .collect();
-        let pass1: Vec<(u32, Vec<(u32, Vec<f64>)>)> = receivers
+        let pass1: Vec<(u32, Keyed)> = receivers
             .par_iter()
             .map(|&r| {
                 let mut pending: BTreeMap<u32, Vec<f64>> = BTreeMap::new();
@@ -366,7 +372,7 @@ impl<'a> StandardSystem<'a> {
         // Pass 2 (receiver side), per column block B: y_R ↦ M_c y_R (parent scaling),
         // W_c y_R (parent wavelets).
         let by_col: Vec<(u32, BTreeMap<u32, Vec<f64>>)> = by_col.into_iter().collect();
-        let pass2: Vec<(u32, Vec<(u32, Vec<f64>)>)> = by_col
+        let pass2: Vec<(u32, Keyed)> = by_col
             .into_par_iter()
             .map(|(cb, pending)| {
                 let sb = self.blocks[cb as usize].size;
@@ -473,7 +479,14 @@ impl<'a> StandardSystem<'a> {
                 } else {
                     let mut d = vec![0.0; 3 * n];
                     for (c, &ci) in h.children[i].iter().enumerate() {
-                        add_a_b(&mut d, &ts.w[c], &nodes[ci as usize * n..][..n], 3 * n, 1, n);
+                        add_a_b(
+                            &mut d,
+                            &ts.w[c],
+                            &nodes[ci as usize * n..][..n],
+                            3 * n,
+                            1,
+                            n,
+                        );
                     }
                     d
                 };
@@ -546,7 +559,14 @@ impl<'a> StandardSystem<'a> {
                 for s in self.row_ptr[rb]..self.row_ptr[rb + 1] {
                     let cb = &self.blocks[self.col[s] as usize];
                     let x = &self.vals[self.val_off[s]..][..info.size * cb.size];
-                    add_a_b(&mut out, x, &w[cb.offset..][..cb.size], info.size, 1, cb.size);
+                    add_a_b(
+                        &mut out,
+                        x,
+                        &w[cb.offset..][..cb.size],
+                        info.size,
+                        1,
+                        cb.size,
+                    );
                 }
                 let f = row_scale(info.patch as usize);
                 out.iter_mut().for_each(|v| *v *= f);
