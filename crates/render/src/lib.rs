@@ -22,6 +22,7 @@
 //! W/(m²·sr) (Lambertian surfaces), so an EXR of a surface of radiosity `B` reads
 //! `B/π`.
 
+mod area;
 pub mod camera;
 pub mod export;
 pub mod field;

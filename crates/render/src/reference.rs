@@ -7,15 +7,18 @@
 //! `B(y)` at the hit `y`), `B(y)` estimated recursively, and Russian roulette after
 //! `rr_depth` bounces with survival probability `min(0.95, max_c throughput_c)`
 //! (unbiased: survivors are divided by it). Rays that escape or hit the back of a
-//! one-sided surface (a black occluder) contribute nothing. When every emitter is
-//! planar, emitted light is gathered by next-event estimation (one shadow ray per
-//! vertex to a point drawn uniformly by area over all emitting sides) combined with
-//! the emission the walk finds by the balance heuristic (Veach's multiple importance
-//! sampling), which cuts the variance for small lights and stays bounded in corners.
+//! one-sided surface (a black occluder) contribute nothing. Emitted light is gathered
+//! by next-event estimation (one shadow ray per vertex to a point drawn uniformly by
+//! area over all emitting sides, of any shape: planar, trimmed analytic, Bézier)
+//! combined with the emission the walk finds by the balance heuristic (Veach's
+//! multiple importance sampling), which cuts the variance for small lights and stays
+//! bounded in corners. Points are drawn by area through [`crate::area`]'s exact
+//! samplers (equal-area maps with rejection against trims; Jacobian-bound rejection on
+//! Bézier patches), with per-point normals from the parametrizations.
 //!
-//! - Per-surface averages: points uniform by area on the surface's front side (the
-//!   quantity `wavelux_solver::Solution::surface_average` reports), one walk each; the
-//!   mean and its standard error `s/√N` per channel.
+//! - Per-surface averages: points uniform by area on one side of a surface (the front
+//!   side is the quantity `wavelux_solver::Solution::surface_average` reports), one
+//!   walk each; the mean and its standard error `s/√N` per channel.
 //! - Per-point radiosity and images (pixel value `B/π`, radiance of a Lambertian
 //!   surface).
 //!
@@ -27,14 +30,15 @@
 //! the solver uses); a Ward lobe is ignored (diffuse transport only); directional
 //! (cosine-power) emitters are rejected; participating media are ignored.
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 use rand::RngExt;
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
 use serde::Serialize;
-use wavelux_geometry::{Accel, Hit, Primitive, Ray};
+use wavelux_geometry::{Accel, Hit, Ray};
 use wavelux_scene::{EmissionProfile, Scene, Sidedness};
 
+use crate::area::AreaSampler;
 use crate::camera::View;
 use crate::image::Image;
 use crate::render::SECONDARY_EPS_REL;
@@ -96,6 +100,8 @@ pub struct PathTracer {
     sides: Vec<[Option<SideMat>; 2]>,
     surface_prims: Vec<Vec<usize>>,
     eps: f64,
+    /// Area sampler per primitive (`Err`: why it cannot be sampled).
+    samplers: Vec<Result<AreaSampler, String>>,
     /// Emitting sides for next-event estimation: (primitive, back side?, E), with the
     /// cumulative area; `None` when some emitter cannot be area-sampled.
     lights: Option<(Vec<Light>, Vec<f64>)>,
@@ -179,6 +185,10 @@ impl PathTracer {
             prim_surface.push(s);
             list.push(p);
         }
+        let samplers: Vec<Result<AreaSampler, String>> = list
+            .iter()
+            .map(|p| AreaSampler::new(p).map_err(|e| e.to_string()))
+            .collect();
         let mut lights = Some((Vec::new(), Vec::new()));
         let mut tot = 0.0;
         for (k, p) in list.iter().enumerate() {
@@ -189,10 +199,7 @@ impl PathTracer {
                 if max3(m.e) <= 0.0 {
                     continue;
                 }
-                if !matches!(
-                    p,
-                    Primitive::Triangle(_) | Primitive::Parallelogram(_) | Primitive::Polygon(_)
-                ) {
+                if samplers[k].is_err() {
                     lights = None;
                 }
                 if let Some((l, cdf)) = &mut lights {
@@ -210,6 +217,7 @@ impl PathTracer {
             sides,
             surface_prims,
             eps: SECONDARY_EPS_REL * diag,
+            samplers,
             lights,
         })
     }
@@ -307,7 +315,7 @@ impl PathTracer {
         let u = rng.random::<f64>() * tot;
         let j = cdf.partition_point(|&c| c <= u).min(lights.len() - 1);
         let (k, back, e) = lights[j];
-        let (y, ny) = Self::sample_prim(&self.accel.primitives()[k], rng).ok()?;
+        let (y, ny) = self.sample_prim(k, rng).ok()?;
         let ny = if back { -ny } else { ny };
         let d = y - x;
         let r2 = d.length_squared();
@@ -349,55 +357,42 @@ impl PathTracer {
         std::array::from_fn(|c| m.e[c] + m.rho[c] * h[c])
     }
 
-    /// Uniform-by-area point on a primitive, with its front normal.
-    fn sample_prim(p: &Primitive, rng: &mut Pcg64) -> Result<(DVec3, DVec3), RenderError> {
-        Ok(match p {
-            Primitive::Triangle(t) => {
-                let (u, v): (f64, f64) = (rng.random(), rng.random());
-                let r = u.sqrt();
-                let (b, c) = (r * (1.0 - v), r * v);
-                (
-                    t.v[0] + b * (t.v[1] - t.v[0]) + c * (t.v[2] - t.v[0]),
-                    t.normal(),
-                )
-            }
-            Primitive::Parallelogram(q) => {
-                (q.eval(DVec2::new(rng.random(), rng.random())), q.normal())
-            }
-            Primitive::Polygon(poly) => {
-                let (lo, hi) = poly.region.bounds();
-                let mut tries = 0;
-                loop {
-                    let q = lo + (hi - lo) * DVec2::new(rng.random(), rng.random());
-                    if poly.region.contains(q) {
-                        break (poly.frame.to_world(q), poly.normal());
-                    }
-                    tries += 1;
-                    if tries > 1_000_000 {
-                        return Err(RenderError::Scene(
-                            "polygon region too thin to sample".into(),
-                        ));
-                    }
-                }
-            }
-            _ => {
-                return Err(RenderError::Scene(
-                    "area sampling of curved primitives is not supported by the reference yet"
-                        .into(),
-                ));
-            }
-        })
+    /// Uniform-by-area point on primitive `k`, with its front normal there.
+    fn sample_prim(&self, k: usize, rng: &mut Pcg64) -> Result<(DVec3, DVec3), RenderError> {
+        let sampler = self.samplers[k]
+            .as_ref()
+            .map_err(|e| RenderError::Scene(e.clone()))?;
+        let s = sampler.sample(&self.accel.primitives()[k], rng)?;
+        Ok((s.point, s.normal))
     }
 
     /// Area-average radiosity of a surface's front side from `samples` uniformly
-    /// distributed points (one walk each).
+    /// distributed points (one walk each): [`PathTracer::side_average`] of the front.
     ///
     /// # Errors
-    /// [`RenderError::Invalid`] for a bad surface index or zero samples,
-    /// [`RenderError::Scene`] for surfaces with curved primitives.
+    /// As [`PathTracer::side_average`].
     pub fn surface_average(
         &self,
         surface: usize,
+        samples: u64,
+        opts: &ReferenceOptions,
+    ) -> Result<SurfaceEstimate, RenderError> {
+        self.side_average(surface, false, samples, opts)
+    }
+
+    /// Area-average radiosity of one side of a surface (`back`: the side opposite the
+    /// shape's orientation, lit only on two-sided surfaces) from `samples` points
+    /// uniform by area over the surface's primitives (any shape), one walk each.
+    ///
+    /// # Errors
+    /// [`RenderError::Invalid`] for a bad surface index, zero samples or a back side
+    /// that does not exist (one-sided surface); [`RenderError::Scene`] for a surface
+    /// whose primitives cannot be area-sampled (a trimmed patch on a non-equal-area
+    /// map).
+    pub fn side_average(
+        &self,
+        surface: usize,
+        back: bool,
         samples: u64,
         opts: &ReferenceOptions,
     ) -> Result<SurfaceEstimate, RenderError> {
@@ -413,7 +408,10 @@ impl PathTracer {
                 "surface {surface} has no primitives"
             )));
         }
-        let front = self.sides[surface][0].ok_or_else(|| invalid("surface", "no front side"))?;
+        let mat = self.sides[surface][usize::from(back)]
+            .ok_or_else(|| invalid("side", "the back of a one-sided surface is black"))?;
+        // Independent streams for the two sides.
+        let stream = surface as u64 | (u64::from(back) << 48);
         let all = self.accel.primitives();
         let mut cdf = Vec::with_capacity(prims.len());
         let mut tot = 0.0;
@@ -429,12 +427,13 @@ impl PathTracer {
                 let mut s = [0.0; 3];
                 let mut s2 = [0.0; 3];
                 for i in ch * CHUNK..((ch + 1) * CHUNK).min(samples) {
-                    let mut rng = rng_for(opts.seed, surface as u64, i);
+                    let mut rng = rng_for(opts.seed, stream, i);
                     let u = rng.random::<f64>() * tot;
                     let j = cdf.partition_point(|&c| c <= u).min(prims.len() - 1);
-                    let (x, n) = Self::sample_prim(&all[prims[j]], &mut rng)?;
+                    let (x, n) = self.sample_prim(prims[j], &mut rng)?;
+                    let n = if back { -n } else { n };
                     let pid = Some(prims[j] as u32);
-                    let b = self.radiosity_sample(x, n, pid, front, opts, &mut rng);
+                    let b = self.radiosity_sample(x, n, pid, mat, opts, &mut rng);
                     for c in 0..3 {
                         s[c] += b[c];
                         s2[c] += b[c] * b[c];
