@@ -174,9 +174,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Formats a number compactly: scientific outside [1e-3, 1e6).
+/// Formats a number compactly: scientific outside [1e-3, 1e6); a missing value (NaN or
+/// infinite, e.g. a threshold a sweep never reached: the JSON holds `null`) is `—`.
 pub fn fmt_num(x: f64) -> String {
-    if x == 0.0 {
+    if !x.is_finite() {
+        "—".into()
+    } else if x == 0.0 {
         "0".into()
     } else if x.abs() >= 1e6 || x.abs() < 1e-3 {
         format!("{x:.3e}")

@@ -4,10 +4,13 @@
 //! Pixel `(x, y)` covers `[x, x+1] × [y, y+1]` in raster space, `y` growing downwards;
 //! a sample at offset `(jx, jy) ∈ [0,1)²` inside it goes through the image-plane point
 //! `((x+jx)/w·2−1)·tan(yfov/2)·aspect` right and `(1−(y+jy)/h·2)·tan(yfov/2)` up.
+//!
+//! Scenes without a camera get an automatic one ([`auto_camera`]) oriented by the
+//! scene's up direction ([`scene_up`]).
 
 use glam::DVec3;
-use wavelux_geometry::Ray;
-use wavelux_scene::{Camera, Projection};
+use wavelux_geometry::{Accel, Ray};
+use wavelux_scene::{Camera, DefaultValue, Projection, Scene, Sidedness};
 
 use crate::{RenderError, invalid};
 
@@ -124,6 +127,159 @@ impl View {
     }
 }
 
+/// The key of a scene's `[defaults]` table that states its up direction: `"+x"`,
+/// `"-x"`, `"+y"`, `"-y"`, `"+z"`, `"-z"` (sign optional, case-insensitive) or three
+/// comma-separated numbers.
+pub const UP_KEY: &str = "up";
+
+/// Parses an up direction as accepted under [`UP_KEY`] (a unit vector).
+pub fn parse_up(text: &str) -> Option<DVec3> {
+    let t = text.trim().to_ascii_lowercase();
+    let (sign, axis) = match t.strip_prefix('-') {
+        Some(rest) => (-1.0, rest),
+        None => (1.0, t.strip_prefix('+').unwrap_or(&t)),
+    };
+    let v = match axis {
+        "x" => DVec3::X,
+        "y" => DVec3::Y,
+        "z" => DVec3::Z,
+        _ => {
+            let c: Vec<f64> = t
+                .split(',')
+                .map(|x| x.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .ok()?;
+            return match c.as_slice() {
+                [x, y, z] => DVec3::new(*x, *y, *z).try_normalize(),
+                _ => None,
+            };
+        }
+    };
+    Some(sign * v)
+}
+
+/// The up direction of a scene, by the first rule that applies:
+/// 1. the scene states it: `defaults["up"]` (see [`UP_KEY`]);
+/// 2. the scene came from glTF (`from_gltf`): `+y` (glTF 2.0 §3.4: "+Y is up");
+/// 3. its planar emitters face one way: lights hang from ceilings, so if the
+///    area-weighted normal of every emitting side of a planar primitive has a
+///    coordinate whose magnitude is at least half the emitting area, up is the
+///    opposite of that axis (the Cornell box's light faces `−y`: up `+y`; Ziegler's
+///    emitters at `z = 1` face `−z`: up `+z`);
+/// 4. otherwise `+y` (glTF's convention).
+pub fn scene_up(scene: &Scene, from_gltf: bool) -> DVec3 {
+    if let Some(DefaultValue::Str(s)) = scene.defaults.get(UP_KEY)
+        && let Some(up) = parse_up(s)
+    {
+        return up;
+    }
+    if from_gltf {
+        return DVec3::Y;
+    }
+    let emits = |m: usize| {
+        scene
+            .materials
+            .get(m)
+            .is_some_and(|m| m.emission.0.iter().any(|&e| e > 0.0))
+    };
+    let (mut sum, mut area) = (DVec3::ZERO, 0.0);
+    for s in &scene.surfaces {
+        let front = emits(s.material);
+        let back = matches!(s.sides, Sidedness::TwoSided { back } if emits(back));
+        if !front && !back {
+            continue;
+        }
+        let Ok(prims) = s.shape.primitives(&scene.name, &s.name) else {
+            continue;
+        };
+        for p in prims.iter().filter(|p| p.is_planar()) {
+            let n = p.normal(glam::DVec2::splat(0.5)) * p.area();
+            for (lit, sign) in [(front, 1.0), (back, -1.0)] {
+                if lit {
+                    sum += sign * n;
+                    area += p.area();
+                }
+            }
+        }
+    }
+    let k = sum.abs().max_position();
+    if area > 0.0 && sum[k].abs() >= 0.5 * area {
+        let mut up = DVec3::ZERO;
+        up[k] = -sum[k].signum();
+        return up;
+    }
+    DVec3::Y
+}
+
+/// An automatic camera for a scene without one, upright along `up`. The camera looks
+/// horizontally along the first of `−z`, `+y`, `−x` not parallel to `up` (so `+y`-up
+/// scenes are seen from `+z` like glTF's default camera, `+z`-up scenes from `−y`). If
+/// rays from a point near the bounding box's near side hit front faces in all six axis
+/// directions the scene is an enclosure and the camera stands there (70° field of
+/// view) looking across and slightly down; otherwise it looks at the centre of the
+/// bounding box from outside, from the front, right and above (45°).
+///
+/// # Errors
+/// [`RenderError::Scene`] for a scene without valid geometry;
+/// [`RenderError::Invalid`] for a zero `up`.
+pub fn auto_camera(scene: &Scene, up: DVec3) -> Result<Camera, RenderError> {
+    let up = up
+        .try_normalize()
+        .ok_or_else(|| invalid("up", "zero vector"))?;
+    let prims: Vec<_> = scene
+        .primitives(&scene.name)
+        .map_err(|e| RenderError::Scene(e.to_string()))?
+        .into_iter()
+        .map(|(_, p)| p)
+        .collect();
+    let accel = Accel::build(prims).map_err(|e| RenderError::Scene(e.to_string()))?;
+    let b = accel.bounds();
+    let (c, size) = (b.center(), b.diagonal());
+    let d = size.length().max(1e-12);
+    // Horizontal direction from the scene towards the eye.
+    let toward = [DVec3::Z, DVec3::NEG_Y, DVec3::X]
+        .into_iter()
+        .find(|t| t.dot(up).abs() < 0.9)
+        .map(|t| (t - up * up.dot(t)).normalize())
+        .unwrap_or(DVec3::Z);
+    let right = up.cross(toward);
+    let extent = |dir: DVec3| (size * dir).abs().element_sum();
+    let (ext_t, ext_up) = (extent(toward), extent(up));
+    let inside_eye = c + toward * (0.45 * ext_t) + up * (0.1 * ext_up);
+    // Explicit axis constants: negating `X` gives `(−1, −0, −0)`, whose signed zeros
+    // make the BVH traversal miss.
+    let enclosed = [
+        DVec3::X,
+        DVec3::NEG_X,
+        DVec3::Y,
+        DVec3::NEG_Y,
+        DVec3::Z,
+        DVec3::NEG_Z,
+    ]
+    .into_iter()
+    .all(|dir| {
+        Ray::new(inside_eye, dir)
+            .ok()
+            .and_then(|r| accel.closest_hit(&r, 0.0, f64::INFINITY))
+            .is_some_and(|h| h.front)
+    });
+    let (eye, target, fov) = if enclosed {
+        (
+            inside_eye,
+            c - toward * (0.5 * ext_t) - up * (0.15 * ext_up),
+            70f64,
+        )
+    } else {
+        (
+            c + (0.35 * right + toward + 0.8 * up).normalize() * (1.2 * d),
+            c,
+            45f64,
+        )
+    };
+    Camera::look_at("auto", eye, target, up, fov.to_radians(), None)
+        .ok_or_else(|| invalid("automatic camera", "degenerate placement"))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -139,6 +295,81 @@ mod tests {
         // The right edge is at tan(yfov/2)·aspect.
         let r = v.ray(64.0, 16.0);
         assert!(((r.dir.x / r.dir.z).abs() - 2.0 * 0.5f64.tan()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn scene_up_follows_statement_gltf_and_emitters() {
+        use wavelux_scene::builtin;
+        // The Cornell box's light faces −y, Ziegler's emitters face −z, the Ziegler
+        // box's ceiling light faces −y.
+        assert_eq!(scene_up(&builtin::cornell_box(), false), DVec3::Y);
+        assert_eq!(scene_up(&builtin::occluded(), false), DVec3::Z);
+        assert_eq!(
+            scene_up(
+                &builtin::builtin("ziegler-box-occluded-high-a").unwrap(),
+                false
+            ),
+            DVec3::Y
+        );
+        // glTF is +y up whatever the lights do.
+        assert_eq!(scene_up(&builtin::occluded(), true), DVec3::Y);
+        // Every face of the furnace emits: no preferred side, glTF's +y.
+        let furnace = builtin::white_furnace(1.0, 0.5).unwrap();
+        assert_eq!(scene_up(&furnace, false), DVec3::Y);
+        // A stated up wins.
+        let mut s = builtin::occluded();
+        s.defaults
+            .insert(UP_KEY.into(), DefaultValue::Str("-X".into()));
+        assert_eq!(scene_up(&s, true), DVec3::NEG_X);
+        s.defaults
+            .insert(UP_KEY.into(), DefaultValue::Str("0, 0, 2".into()));
+        assert_eq!(scene_up(&s, true), DVec3::Z);
+        assert_eq!(parse_up("w"), None);
+        assert_eq!(parse_up("1,2"), None);
+    }
+
+    #[test]
+    fn auto_camera_is_upright_and_sees_the_scene() {
+        use wavelux_scene::builtin;
+        for (name, inside) in [
+            ("ziegler-occluded", false),
+            ("ziegler-box-occluded-high-a", true),
+            ("white-furnace", true),
+        ] {
+            let s = builtin::builtin(name).unwrap();
+            let up = scene_up(&s, false);
+            let cam = auto_camera(&s, up).unwrap();
+            // Upright: the camera's up has a positive component along the scene's up
+            // and its right vector is horizontal.
+            assert!(cam.up.dot(up) > 0.5, "{name}: up {:?}", cam.up);
+            assert!(cam.right().dot(up).abs() < 1e-12, "{name}");
+            let pts: Vec<DVec3> = s
+                .primitives(name)
+                .unwrap()
+                .iter()
+                .flat_map(|(_, p)| [p.eval(glam::DVec2::ZERO), p.eval(glam::DVec2::ONE)])
+                .collect();
+            let lo = pts.iter().fold(DVec3::INFINITY, |a, p| a.min(*p));
+            let hi = pts.iter().fold(DVec3::NEG_INFINITY, |a, p| a.max(*p));
+            let in_box = cam.position.cmpge(lo).all() && cam.position.cmple(hi).all();
+            assert_eq!(in_box, inside, "{name}: eye {:?}", cam.position);
+            // The centre ray hits the scene.
+            let v = View::new(&cam, 8, 8).unwrap();
+            let acc = Accel::build(
+                s.primitives(name)
+                    .unwrap()
+                    .into_iter()
+                    .map(|(_, p)| p)
+                    .collect(),
+            )
+            .unwrap();
+            assert!(
+                acc.closest_hit(&v.ray(4.0, 4.0), 0.0, f64::INFINITY)
+                    .is_some(),
+                "{name}"
+            );
+        }
+        assert!(auto_camera(&builtin::occluded(), DVec3::ZERO).is_err());
     }
 
     #[test]

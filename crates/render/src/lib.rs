@@ -31,7 +31,7 @@ pub mod reference;
 pub mod render;
 mod sampling;
 
-pub use camera::View;
+pub use camera::{View, auto_camera, scene_up};
 pub use field::{EmitterSample, RadiosityField, SolutionField, SurfacePoint};
 pub use image::{ErrorMetrics, Image, ToneMap, write_atomic};
 pub use reference::{PathTracer, ReferenceOptions, SurfaceEstimate};

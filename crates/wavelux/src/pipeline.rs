@@ -10,7 +10,7 @@ use wavelux::render::{
     Image, PathTracer, ReferenceOptions, RenderOptions, SolutionField, ToneMap, View,
     image::write_bytes_atomic,
 };
-use wavelux::scene::{Camera, Scene, builtin};
+use wavelux::scene::{Scene, builtin};
 use wavelux::solver::{BasisKind, LinearMethod, Oracle, Solution, SolverConfig, Visibility};
 
 use crate::cli::{BasisArg, CameraArgs, MethodArg, OracleArg, SolveArgs, SolverArg, VisibilityArg};
@@ -187,48 +187,15 @@ fn choose_view(scene: &Scene, a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow
     if let Some(camera) = scene.cameras.first() {
         return View::new(camera, w, h).context("invalid scene camera");
     }
-    Ok(View::new(&auto_camera(scene)?, w, h)?)
+    let up = wavelux::render::scene_up(scene, is_gltf(&a.scene));
+    Ok(View::new(&wavelux::render::auto_camera(scene, up)?, w, h)?)
 }
 
-/// An automatic camera (scenes without one; `+z` up, the built-in Ziegler scenes'
-/// convention). If rays from a point near the bounding box's `−y` side hit front faces
-/// in all six axis directions the scene is an enclosure and the camera goes there,
-/// looking across; otherwise it looks at the centre from outside.
-fn auto_camera(scene: &Scene) -> anyhow::Result<Camera> {
-    let prims: Vec<_> = scene
-        .primitives(&scene.name)?
-        .into_iter()
-        .map(|(_, p)| p)
-        .collect();
-    let accel = wavelux::geometry::Accel::build(prims)?;
-    let b = accel.bounds();
-    let (lo, hi) = (b.min, b.max);
-    let c = 0.5 * (lo + hi);
-    let size = hi - lo;
-    let d = size.length().max(1e-12);
-    let inside_eye = c + DVec3::new(0.0, -0.45 * size.y, 0.1 * size.z);
-    let axes = [DVec3::X, DVec3::Y, DVec3::Z];
-    let enclosed = axes.iter().flat_map(|a| [*a, -*a]).all(|dir| {
-        wavelux::geometry::Ray::new(inside_eye, dir)
-            .ok()
-            .and_then(|r| accel.closest_hit(&r, 0.0, f64::INFINITY))
-            .is_some_and(|h| h.front)
-    });
-    let (eye, target, fov) = if enclosed {
-        (
-            inside_eye,
-            c + DVec3::new(0.0, 0.5 * size.y, -0.15 * size.z),
-            70f64,
-        )
-    } else {
-        (
-            c + DVec3::new(0.35, -1.0, 0.8).normalize() * (1.2 * d),
-            c,
-            45f64,
-        )
-    };
-    Camera::look_at("auto", eye, target, DVec3::Z, fov.to_radians(), None)
-        .context("cannot place an automatic camera")
+/// Whether a scene source names a glTF file (`.gltf`/`.glb`: `+y` up).
+fn is_gltf(source: &str) -> bool {
+    Path::new(source)
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
 }
 
 fn peak_memory() -> Option<u64> {

@@ -17,9 +17,10 @@ use crate::plot::{Axis, Series, Style, xy_plot};
 use crate::report::{Figure, Report, Row, Table, Tolerance};
 use crate::reproduce::Ctx;
 use wavelux::render::{
-    Image, PathTracer, ReferenceOptions, RenderOptions, SolutionField, View, render,
+    Image, PathTracer, ReferenceOptions, RenderOptions, SolutionField, View, auto_camera, render,
+    scene_up,
 };
-use wavelux::scene::{Camera, Scene, builtin};
+use wavelux::scene::{Scene, builtin};
 use wavelux::solver::{BasisKind, LinearMethod, SolverConfig, solve};
 
 /// One measured run.
@@ -32,21 +33,11 @@ struct Point {
     err_image: f64,
 }
 
-fn view_for(scene: &Scene, pt: &PathTracer, n: usize) -> anyhow::Result<View> {
-    if let Some(c) = scene.cameras.first() {
-        return Ok(View::new(c, n, n)?);
-    }
-    let b = pt.accel().bounds();
-    let c = b.center();
-    let d = b.diagonal().length();
-    // glam is not a dependency of xtask: build the vectors from the box's own.
-    let mut dir = c;
-    (dir.x, dir.y, dir.z) = (0.3, -0.9, 0.6);
-    let mut up = c;
-    (up.x, up.y, up.z) = (0.0, 0.0, 1.0);
-    let eye = c + dir.normalize() * (1.3 * d);
-    let cam = Camera::look_at("auto", eye, c, up, 0.7, None)
-        .ok_or_else(|| anyhow::anyhow!("cannot place a camera"))?;
+fn view_for(scene: &Scene, n: usize) -> anyhow::Result<View> {
+    let cam = match scene.cameras.first() {
+        Some(c) => c.clone(),
+        None => auto_camera(scene, scene_up(scene, false))?,
+    };
     Ok(View::new(&cam, n, n)?)
 }
 
@@ -152,7 +143,7 @@ method against the Monte Carlo reference so users can choose their trade."
             reference.push(e.mean);
             noise.push(e.std_error);
         }
-        let view = view_for(scene, &pt, img)?;
+        let view = view_for(scene, img)?;
         let ref_img = pt.render(&view, ref_spp, &ro, &|_| {})?;
         let ref_time = t.elapsed().as_secs_f64();
         // Σ A·σ / Σ A·B̂: the error measure of a one-σ deviation on every surface.
