@@ -15,10 +15,9 @@ pub enum SolverError {
         /// What was expected.
         reason: &'static str,
     },
-    /// A surface whose kind needs supports this crate does not build yet.
-    #[error(
-        "unsupported surface kind for surface {surface:?}: {kind} (virtual supports arrive with the Virtual Mesh)"
-    )]
+    /// A surface this crate cannot build a support for (e.g. a trimmed patch in
+    /// natural coordinates).
+    #[error("unsupported surface kind for surface {surface:?}: {kind}")]
     UnsupportedSurface {
         /// Surface name.
         surface: String,

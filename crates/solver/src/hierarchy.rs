@@ -159,8 +159,13 @@ fn can_split(ctx: &TransferCtx<'_>, k: &NodeKey, p: &RefineParams) -> bool {
     if k.level >= p.max_level {
         return false;
     }
-    let a = ctx.patches[k.patch as usize].support.area * 0.25f64.powi(k.level as i32 + 1);
-    a >= p.min_area
+    let sup = &ctx.patches[k.patch as usize].support;
+    let a = sup.area * 0.25f64.powi(k.level as i32 + 1);
+    // Empty cells of virtual supports are never split (VirtualMesh §5.4).
+    a >= p.min_area && {
+        let r = k.region();
+        sup.mask.is_none() || sup.coverage(r.s0, r.t0, r.h) != crate::mask::Coverage::Empty
+    }
 }
 
 /// The factor the oracle multiplies the kernel-smoothness estimate by.
@@ -261,7 +266,10 @@ pub fn refine_link(
 }
 
 /// Refines every root pair `(receiver, emitter)` of patches that can interact:
-/// receivers that reflect, emitters that emit or reflect, `receiver ≠ emitter`.
+/// receivers that reflect, emitters that emit or reflect, on different pieces — or
+/// the same patch when its support is curved (a concave curved surface sees itself,
+/// VirtualMesh §5.3; planar patches never self-link). The two sides of one curved
+/// piece are not linked (light between them has to cross the sheet).
 pub fn refine_all(
     ctx: &TransferCtx<'_>,
     p: &RefineParams,
@@ -272,7 +280,15 @@ pub fn refine_all(
         .filter(|&i| ctx.patches[i].reflects())
         .flat_map(|i| {
             (0..np)
-                .filter(move |&j| j != i && ctx.patches[j].can_emit())
+                .filter(move |&j| {
+                    let (a, b) = (&ctx.patches[i], &ctx.patches[j]);
+                    let pair = if a.prim == b.prim {
+                        i == j && !a.support.is_planar()
+                    } else {
+                        true
+                    };
+                    pair && b.can_emit()
+                })
                 .map(move |j| (i, j))
         })
         .collect();

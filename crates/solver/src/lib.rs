@@ -27,6 +27,7 @@
 pub mod basis;
 pub mod error;
 pub mod hierarchy;
+pub mod mask;
 pub mod solution;
 pub mod standard;
 pub mod support;
@@ -48,11 +49,13 @@ use wavelux_scene::Scene;
 pub use basis::{BasisKind, TreeBasis};
 pub use error::SolverError;
 pub use hierarchy::{Hierarchy, LinkRec, NodeKey, Oracle, RefineParams, SplitPolicy};
+pub use mask::{Coverage, Mask};
 pub use solution::{Energy, Solution, Statistics};
 pub use standard::{Decomposition, StandardSystem};
-pub use support::{Patch, PatchSet, Side, Support, SupportMap, build_patches};
+pub use support::{Patch, PatchSet, Side, Support, SupportMap, build_patches, build_patches_with};
 pub use system::System;
 pub use transfer::{TransferCtx, TransferOptions, Visibility};
+pub use wavelux_param::ParamKind;
 
 /// The linear solver of the discrete system.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -248,9 +251,22 @@ impl Prepared {
     /// # Errors
     /// [`SolverError`] variants for bad configuration, scene or basis.
     pub fn new(scene: &Scene, config: &SolverConfig) -> Result<Self, SolverError> {
+        Self::with_kind(scene, config, ParamKind::EqualArea)
+    }
+
+    /// [`Prepared::new`] with the parametrization kind of curved supports
+    /// ([`ParamKind::Natural`] for the VirtualMesh Table 3 comparison).
+    ///
+    /// # Errors
+    /// As [`Prepared::new`].
+    pub fn with_kind(
+        scene: &Scene,
+        config: &SolverConfig,
+        kind: ParamKind,
+    ) -> Result<Self, SolverError> {
         let t0 = Instant::now();
         config.validate()?;
-        let patches = build_patches(scene)?;
+        let patches = build_patches_with(scene, kind)?;
         if patches.patches.is_empty() {
             return Err(SolverError::InvalidScene(
                 "the scene has no surfaces".into(),
@@ -271,6 +287,11 @@ impl Prepared {
                 lo = lo.min(center - DVec3::splat(radius));
                 hi = hi.max(center + DVec3::splat(radius));
             }
+            if !s.is_planar() {
+                let (c, r) = s.bounding_sphere(0.0, 0.0, 1.0);
+                lo = lo.min(c - DVec3::splat(r));
+                hi = hi.max(c + DVec3::splat(r));
+            }
         }
         let center = DVec3::ZERO;
         let diag = (hi - lo).length();
@@ -281,12 +302,42 @@ impl Prepared {
         let size = 2f64.powi(diag.log2().floor() as i32);
         let frame = (center, size);
         let nrm = |p: DVec3| (p - center) / size;
+        // Surface of each piece (pieces of one surface are consecutive).
+        let mut piece_surface = vec![0usize; patches.pieces.len()];
+        for p in &patches.patches {
+            piece_surface[p.prim as usize] = p.surface;
+        }
+        let scale = glam::DMat4::from_scale(DVec3::splat(1.0 / size))
+            * glam::DMat4::from_translation(-center);
         let prims: Vec<Primitive> = patches
             .pieces
             .iter()
-            .map(|s| -> Result<Primitive, SolverError> {
+            .zip(&piece_surface)
+            .map(|(s, &surf)| -> Result<Primitive, SolverError> {
                 let map_err =
                     |e: wavelux_geometry::GeometryError| SolverError::InvalidScene(e.to_string());
+                if s.mask.is_some() || !s.is_planar() {
+                    // A virtual or curved support: the blocker is the true (trimmed)
+                    // surface (VirtualMesh §4.2, "S is a blocker"), one per surface.
+                    let sf = &scene.surfaces[surf];
+                    let shape = sf.shape.transformed(&scale).ok_or_else(|| {
+                        SolverError::InvalidScene(format!(
+                            "surface {:?} cannot be normalised for the accelerator",
+                            sf.name
+                        ))
+                    })?;
+                    let mut v = shape
+                        .primitives("scene", &sf.name)
+                        .map_err(|e| SolverError::InvalidScene(e.to_string()))?;
+                    if v.len() != 1 {
+                        return Err(SolverError::InvalidScene(format!(
+                            "surface {:?}: expected one exact primitive, got {}",
+                            sf.name,
+                            v.len()
+                        )));
+                    }
+                    return Ok(v.remove(0));
+                }
                 Ok(match s.map {
                     SupportMap::Parallelogram {
                         origin,
@@ -305,16 +356,25 @@ impl Prepared {
                         v,
                         radius,
                     } => {
-                        let frame = PlaneFrame::from_axes(center, u, v).map_err(map_err)?;
-                        let edge =
-                            Edge2::arc(glam::DVec2::ZERO, radius, 0.0, std::f64::consts::TAU)
-                                .map_err(map_err)?;
+                        let frame = PlaneFrame::from_axes(nrm(center), u, v).map_err(map_err)?;
+                        let edge = Edge2::arc(
+                            glam::DVec2::ZERO,
+                            radius / size,
+                            0.0,
+                            std::f64::consts::TAU,
+                        )
+                        .map_err(map_err)?;
                         let region =
                             TrimRegion::new(vec![TrimLoop::new(vec![edge]).map_err(map_err)?])
                                 .map_err(map_err)?;
                         Primitive::Polygon(Box::new(
                             ComplexPolygon::new(frame, region).map_err(map_err)?,
                         ))
+                    }
+                    SupportMap::Mapped { .. } => {
+                        return Err(SolverError::InvalidScene(
+                            "curved support without its surface".into(),
+                        ));
                     }
                 })
             })
@@ -639,6 +699,7 @@ pub fn solve_prepared(prep: &Prepared) -> Result<Solution, SolverError> {
         stats.elements = system.h.node_count();
         stats.leaves = system.h.leaves.len();
         stats.links = system.h.link_count();
+        [stats.cells_empty, stats.cells_partial, stats.cells_full] = system.coverage_counts;
         stats.kernel_evals = ctx.kernel_evals.load(std::sync::atomic::Ordering::Relaxed);
         stats.rays = ctx.rays.load(std::sync::atomic::Ordering::Relaxed);
         stats.bytes = system.h.bytes()

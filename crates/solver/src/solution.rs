@@ -13,9 +13,9 @@ use crate::system::System;
 /// Energy accounting (W, per RGB channel).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Energy {
-    /// Emitted power `Σ E·A`.
+    /// Emitted power `Σ E·A` over real areas.
     pub emitted: [f64; 3],
-    /// Absorbed power `Σ (1 − ρ) ∫H dA` over all receiving sides.
+    /// Absorbed power `Σ (1 − ρ) ∫H dA` over the real parts of all receiving sides.
     pub absorbed: [f64; 3],
     /// Power that leaves the modelled sides without arriving at one (open scenes,
     /// back sides of one-sided surfaces): `Σ ∫B − Σ ∫H`.
@@ -56,6 +56,12 @@ pub struct Statistics {
     pub iterations: Vec<usize>,
     /// Refine–solve stages (1 without the multigrid-like loop).
     pub stages: usize,
+    /// Leaves with no real point (virtual supports, VirtualMesh §5.4).
+    pub cells_empty: usize,
+    /// Leaves crossed by a trim boundary.
+    pub cells_partial: usize,
+    /// Leaves whose points are all real (every leaf of an unmasked support).
+    pub cells_full: usize,
 }
 
 /// A radiosity solution.
@@ -96,7 +102,6 @@ impl Solution {
         let mut node_b: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; nn]);
         let mut leaf_h: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::new());
         let mut energy = Energy::default();
-        let ints = system.integrals().to_vec();
         for ch in 0..3 {
             system.pull_from_leaves(&leaf_b[ch], &mut node_b[ch]);
             leaf_h[ch] = system.irradiance(&leaf_b[ch]);
@@ -105,17 +110,18 @@ impl Solution {
             let mut abs = 0.0;
             let mut unshot = 0.0;
             for (l, &i) in system.h.leaves.iter().enumerate() {
-                let s = system.node_area[i as usize].sqrt();
                 let p = system.h.keys[i as usize].patch as usize;
                 let rho = system.leaf_rho[l][ch];
                 let e = system.patch_emission[p][ch];
                 let mut ib = 0.0;
                 let mut ih = 0.0;
+                // Only real points emit, absorb and receive (VirtualMesh §4.2).
+                let mom = &system.leaf_real_moments[l * n..][..n];
                 for a in 0..n {
-                    ib += leaf_b[ch][l * n + a] * s * ints[a];
-                    ih += leaf_h[ch][l * n + a] * s * ints[a];
+                    ib += leaf_b[ch][l * n + a] * mom[a];
+                    ih += leaf_h[ch][l * n + a] * mom[a];
                 }
-                let area = system.node_area[i as usize];
+                let area = system.leaf_real_area[l];
                 sum_b += ib;
                 sum_h += ih;
                 abs += (1.0 - rho) * ih;

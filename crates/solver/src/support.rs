@@ -14,17 +14,34 @@
 //!   concentric map (equal-area);
 //! - complex polygons made of straight edges that are *rectilinear* (every edge
 //!   parallel or perpendicular to the first one), e.g. a ceiling with a rectangular
-//!   hole for a light: decomposed exactly into rectangles, one support each.
+//!   hole for a light: decomposed exactly into rectangles, one support each;
+//! - every other planar polygon (circular arcs, oblique edges, holes): one *virtual
+//!   support* (VirtualMesh §3.2–§3.3) — its minimal enclosing parallelogram
+//!   (`wavelux_param::mep`) with the polygon as [`Mask`];
+//! - analytic patches (sphere, spheroid, cylinder, cone, torus) and Bézier patches:
+//!   [`SupportMap::Mapped`], the `wavelux-param` map Ψ (equal-area, VirtualMesh §3.1 and
+//!   Appendix A, or natural for the Table 3 comparison) composed with the affine Λ onto
+//!   the parallelogram enclosing the trim region in Ψ's unit square (identity when
+//!   untrimmed), masked by the trim.
 //!
-//! Other kinds (arcs, general polygons, trimmed patches, Bézier patches) need masked
-//! supports — a bounding map plus the real area of each cell (VirtualMesh §4.2, §5) —
-//! and are rejected with [`SolverError::UnsupportedSurface`]. The [`Support`] type
-//! keeps a slot for that mask so the Virtual Mesh plugs in here.
+//! The exact decompositions are kept where they exist (rectangles, disks, triangles):
+//! they have no virtual points, their pieces are affine or planar (the singular and
+//! exact near-field rules of [`crate::transfer`] apply) and a single virtual support
+//! would not be simpler for them. Masked supports answer [`Support::is_real`],
+//! [`Support::coverage`], [`Support::real_fraction`] and [`Support::nearest_real`]
+//! exactly for trims made of segments and circular arcs (see [`crate::mask`]).
+
+use std::sync::Arc;
 
 use glam::{DVec2, DVec3};
-use wavelux_scene::{LoopEdge, MeshElement, Scene, Shape, Sidedness};
+use wavelux_geometry::{Edge2, TrimRegion};
+use wavelux_param::mep::{BoundarySegment, min_enclosing_parallelogram_of_boundary};
+use wavelux_param::{Parallelogram2, ParamKind, Parametrization, SurfaceShape};
+use wavelux_quadrature::GaussLegendre;
+use wavelux_scene::{AnalyticPatch, LoopEdge, MeshElement, Scene, SceneError, Shape, Sidedness};
 
 use crate::error::SolverError;
+pub use crate::mask::{Coverage, Mask};
 
 /// The map of a support from the unit square `[0,1]²` to the surface.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,70 +78,184 @@ pub enum SupportMap {
         /// Radius.
         radius: f64,
     },
+    /// A curved surface `Ψ(Λ(s,t))` (VirtualMesh §3, Fig. 3): `Λ(s,t) = origin +
+    /// s·e1 + t·e2` maps the support square onto a parallelogram of the unit parameter
+    /// square of the `wavelux-param` map `Ψ` held in [`Support::param`] (identity for
+    /// untrimmed patches; the parallelogram enclosing the trim region otherwise).
+    Mapped {
+        /// `Λ(0,0)` in Ψ's parameter square.
+        origin: DVec2,
+        /// `Λ(1,0) − Λ(0,0)`.
+        e1: DVec2,
+        /// `Λ(0,1) − Λ(0,0)`.
+        e2: DVec2,
+    },
 }
 
-/// A unit-square support: an equal-area map, its front normal and area, and an
-/// optional per-cell real-area mask (reserved for the Virtual Mesh's masked
-/// supports; `None` means the whole square is surface).
-#[derive(Debug, Clone, PartialEq)]
+/// A unit-square support: a map onto the surface (equal-area for every kind except
+/// natural-coordinate curved maps), its area and, for virtual supports, the trim mask
+/// that tells real points from virtual ones (VirtualMesh §4).
+#[derive(Debug, Clone)]
 pub struct Support {
     /// The map.
     pub map: SupportMap,
-    /// Unit normal of the side this support is lit on.
+    /// Unit normal of the side this support is lit on: constant for planar maps; for
+    /// curved maps the normal at the centre `(½, ½)` (use [`Support::normal_at`]).
     pub normal: DVec3,
-    /// Area of the image (m² in scene units).
+    /// Area of the whole support's image (m² in scene units), real and virtual
+    /// points together: the `L²` normalisation of the basis. See
+    /// [`Support::real_area`] for the surface's own area.
     pub area: f64,
-    /// Reserved: real-area fraction per cell of a fixed grid (Virtual Mesh).
-    pub mask: Option<Vec<f64>>,
+    /// Trim mask of a virtual support (`None`: every point is real).
+    pub mask: Option<Arc<Mask>>,
+    /// The surface map `Ψ` of a [`SupportMap::Mapped`] support.
+    pub param: Option<Arc<dyn Parametrization>>,
+    /// `+1` for the front side, `−1` for a flipped (back) side.
+    orientation: f64,
 }
 
+impl PartialEq for Support {
+    fn eq(&self, o: &Self) -> bool {
+        self.map == o.map
+            && self.normal == o.normal
+            && self.area == o.area
+            && self.orientation == o.orientation
+            && match (&self.mask, &o.mask) {
+                (None, None) => true,
+                (Some(a), Some(b)) => a == b,
+                _ => false,
+            }
+            && match (&self.param, &o.param) {
+                (None, None) => true,
+                (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+                _ => false,
+            }
+    }
+}
+
+/// Gauss points per axis of the numerical area of non-equal-area mapped supports.
+const AREA_GAUSS: usize = 16;
+
 impl Support {
+    fn planar(map: SupportMap, normal: DVec3, area: f64) -> Self {
+        Self {
+            map,
+            normal,
+            area,
+            mask: None,
+            param: None,
+            orientation: 1.0,
+        }
+    }
+
     /// A parallelogram support with the normal `edge_u × edge_v`.
     pub fn parallelogram(origin: DVec3, edge_u: DVec3, edge_v: DVec3) -> Self {
         let n = edge_u.cross(edge_v);
-        Self {
-            map: SupportMap::Parallelogram {
+        Self::planar(
+            SupportMap::Parallelogram {
                 origin,
                 edge_u,
                 edge_v,
             },
-            normal: n.normalize_or_zero(),
-            area: n.length(),
-            mask: None,
-        }
+            n.normalize_or_zero(),
+            n.length(),
+        )
     }
 
     /// A triangle support with the normal `(b − a) × (c − a)`.
     pub fn triangle(a: DVec3, b: DVec3, c: DVec3) -> Self {
         let n = (b - a).cross(c - a);
-        Self {
-            map: SupportMap::Triangle { a, b, c },
-            normal: n.normalize_or_zero(),
-            area: 0.5 * n.length(),
-            mask: None,
-        }
+        Self::planar(
+            SupportMap::Triangle { a, b, c },
+            n.normalize_or_zero(),
+            0.5 * n.length(),
+        )
     }
 
     /// A disk support (`u`, `v` orthonormal; normal `u × v`).
     pub fn disk(center: DVec3, u: DVec3, v: DVec3, radius: f64) -> Self {
-        Self {
-            map: SupportMap::Disk {
+        Self::planar(
+            SupportMap::Disk {
                 center,
                 u,
                 v,
                 radius,
             },
-            normal: u.cross(v).normalize_or_zero(),
-            area: std::f64::consts::PI * radius * radius,
+            u.cross(v).normalize_or_zero(),
+            std::f64::consts::PI * radius * radius,
+        )
+    }
+
+    /// A curved support `Ψ(Λ(s,t))` with `Λ(s,t) = origin + s·e1 + t·e2` in Ψ's
+    /// parameter square; front normal = Ψ's normal. The area is `Ψ.area()·|det Λ|`
+    /// for equal-area maps, else a 16×16 Gauss rule of the Jacobian (smooth).
+    ///
+    /// # Errors
+    /// [`SolverError::InvalidScene`] if `Λ` is degenerate or the area is not finite
+    /// and positive.
+    pub fn mapped(
+        param: Arc<dyn Parametrization>,
+        origin: DVec2,
+        e1: DVec2,
+        e2: DVec2,
+    ) -> Result<Self, SolverError> {
+        let det = e1.perp_dot(e2).abs();
+        let mut s = Self {
+            map: SupportMap::Mapped { origin, e1, e2 },
+            normal: DVec3::ZERO,
+            area: 0.0,
             mask: None,
+            param: Some(param.clone()),
+            orientation: 1.0,
+        };
+        s.area = if param.is_equal_area() {
+            param.area() * det
+        } else {
+            let g = GaussLegendre::new(AREA_GAUSS).map_err(|e| SolverError::Dependency {
+                what: "quadrature",
+                message: e.to_string(),
+            })?;
+            let (x, w) = g.unit();
+            let mut a = 0.0;
+            for j in 0..AREA_GAUSS {
+                for i in 0..AREA_GAUSS {
+                    a += w[i] * w[j] * s.jacobian(x[i], x[j]);
+                }
+            }
+            a
+        };
+        if !(s.area.is_finite() && s.area > 0.0) {
+            return Err(SolverError::InvalidScene(format!(
+                "curved support with area {}",
+                s.area
+            )));
         }
+        s.normal = s.normal_at(0.5, 0.5);
+        Ok(s)
+    }
+
+    /// The same support with a trim mask (a virtual support, VirtualMesh §4).
+    #[must_use]
+    pub fn with_mask(mut self, mask: Mask) -> Self {
+        self.mask = Some(Arc::new(mask));
+        self
     }
 
     /// The same support seen from its back side (normal flipped, same map).
     pub fn flipped(&self) -> Self {
         let mut s = self.clone();
         s.normal = -s.normal;
+        s.orientation = -s.orientation;
         s
+    }
+
+    /// `Λ(s, t)` of a mapped support.
+    #[inline]
+    fn lambda(&self, s: f64, t: f64) -> DVec2 {
+        match self.map {
+            SupportMap::Mapped { origin, e1, e2 } => origin + s * e1 + t * e2,
+            _ => DVec2::new(s, t),
+        }
     }
 
     /// `χ(s, t)`.
@@ -157,6 +288,106 @@ impl Support {
                 };
                 center + radius * r * (phi.cos() * u + phi.sin() * v)
             }
+            SupportMap::Mapped { .. } => match &self.param {
+                Some(p) => p.position(self.lambda(s, t)),
+                None => DVec3::splat(f64::NAN),
+            },
+        }
+    }
+
+    /// Unit normal of this side at `(s, t)`: constant for planar maps, `±Ψ`'s normal
+    /// for curved maps (flipped for back sides).
+    #[inline]
+    pub fn normal_at(&self, s: f64, t: f64) -> DVec3 {
+        match (&self.map, &self.param) {
+            (SupportMap::Mapped { .. }, Some(p)) => self.orientation * p.normal(self.lambda(s, t)),
+            _ => self.normal,
+        }
+    }
+
+    /// Area element at `(s, t)` (world area per unit parameter area): `area` for
+    /// equal-area maps, `Ψ.jacobian(Λ(s,t))·|det Λ|` for curved maps.
+    #[inline]
+    pub fn jacobian(&self, s: f64, t: f64) -> f64 {
+        match (&self.map, &self.param) {
+            (SupportMap::Mapped { e1, e2, .. }, Some(p)) => {
+                if p.is_equal_area() {
+                    self.area
+                } else {
+                    p.jacobian(self.lambda(s, t)) * e1.perp_dot(*e2).abs()
+                }
+            }
+            _ => self.area,
+        }
+    }
+
+    /// Whether the map has a constant Jacobian (VirtualMesh §3: energy-preserving).
+    pub fn is_equal_area(&self) -> bool {
+        self.param.as_ref().is_none_or(|p| p.is_equal_area())
+    }
+
+    /// Whether the support is planar (every kind except [`SupportMap::Mapped`]).
+    pub fn is_planar(&self) -> bool {
+        !matches!(self.map, SupportMap::Mapped { .. })
+    }
+
+    /// Whether `(s, t)` is a real point of the surface (always for unmasked supports).
+    #[inline]
+    pub fn is_real(&self, s: f64, t: f64) -> bool {
+        self.mask.as_ref().is_none_or(|m| m.is_real(s, t))
+    }
+
+    /// Coverage of the cell `[s0,s0+h]×[t0,t0+h]` by real points (VirtualMesh §5.4;
+    /// exact classification, conservative: see [`crate::mask`]).
+    pub fn coverage(&self, s0: f64, t0: f64, h: f64) -> Coverage {
+        match &self.mask {
+            None => Coverage::Full,
+            Some(m) => m.coverage(s0, t0, h),
+        }
+    }
+
+    /// Real fraction of the cell `[s0,s0+h]×[t0,t0+h]` in parameter measure (exact to
+    /// rounding for trims of segments and circular arcs; equal to the real *area*
+    /// fraction for equal-area maps).
+    pub fn real_fraction(&self, s0: f64, t0: f64, h: f64) -> f64 {
+        match &self.mask {
+            None => 1.0,
+            Some(m) => m.real_fraction(s0, t0, h),
+        }
+    }
+
+    /// [`Support::real_fraction`] of the rectangle `[s0,s0+hs]×[t0,t0+ht]`.
+    pub fn real_fraction_rect(&self, s0: f64, t0: f64, hs: f64, ht: f64) -> f64 {
+        match &self.mask {
+            None => 1.0,
+            Some(m) => m.real_fraction_rect(s0, t0, hs, ht),
+        }
+    }
+
+    /// The point the extended visibility ṽ uses for `(s, t)` (VirtualMesh §4.1): the
+    /// image of [`Support::nearest_real`] (the point itself when real).
+    #[inline]
+    pub fn visibility_point(&self, s: f64, t: f64) -> DVec3 {
+        if self.is_real(s, t) {
+            self.point(s, t)
+        } else {
+            let (a, b) = self.nearest_real(s, t);
+            self.point(a, b)
+        }
+    }
+
+    /// Area of the real surface (`area ×` real fraction of the whole support).
+    pub fn real_area(&self) -> f64 {
+        self.area * self.mask.as_ref().map_or(1.0, |m| m.total_fraction())
+    }
+
+    /// The nearest real point to `(s, t)`, as support parameters (`(s, t)` itself
+    /// when real). Distances are measured in the mask plane: the polygon's plane for
+    /// planar polygons (exact), the equal-area parameter square for curved patches.
+    pub fn nearest_real(&self, s: f64, t: f64) -> (f64, f64) {
+        match &self.mask {
+            None => (s, t),
+            Some(m) => m.nearest_real(s, t),
         }
     }
 
@@ -203,6 +434,16 @@ impl Support {
                 let m = pts.iter().copied().sum::<DVec3>() / pts.len() as f64;
                 let r = pts.iter().map(|p| (*p - m).length()).fold(0.0, f64::max);
                 (m, 1.1 * r)
+            }
+            SupportMap::Mapped { .. } => {
+                // A 5×5 grid of the smooth image, padded for the sag between samples.
+                let mut pts = [DVec3::ZERO; 25];
+                for (k, p) in pts.iter_mut().enumerate() {
+                    *p = self.point(s0 + h * (k % 5) as f64 / 4.0, t0 + h * (k / 5) as f64 / 4.0);
+                }
+                let m = pts.iter().copied().sum::<DVec3>() / 25.0;
+                let r = pts.iter().map(|p| (*p - m).length()).fold(0.0, f64::max);
+                (m, 1.15 * r)
             }
         }
     }
@@ -269,8 +510,9 @@ fn unsupported(scene: &Scene, i: usize, kind: &str) -> SolverError {
     }
 }
 
-/// Splits a rectilinear polygon with holes (straight edges only) into rectangles in
-/// the polygon's plane; returns parallelogram supports (front = polygon front).
+/// Supports of a planar polygon: a disk (one full circle, no holes), the exact
+/// rectangles of a rectilinear polygon, or else one virtual support — the minimal
+/// enclosing parallelogram with the polygon as mask (VirtualMesh §3.2).
 fn polygon_pieces(
     scene: &Scene,
     i: usize,
@@ -283,19 +525,190 @@ fn polygon_pieces(
         let c = poly.frame.point(*center);
         return Ok(vec![Support::disk(c, poly.frame.u, poly.frame.v, radius)]);
     }
+    if let Some(v) = rectilinear_pieces(scene, i, poly)? {
+        return Ok(v);
+    }
+    Ok(vec![masked_polygon(scene, i, poly)?])
+}
+
+fn scene_err(e: SceneError) -> SolverError {
+    SolverError::InvalidScene(e.to_string())
+}
+
+fn geometry_err(e: wavelux_geometry::GeometryError) -> SolverError {
+    SolverError::InvalidScene(e.to_string())
+}
+
+fn param_err(e: wavelux_param::ParamError) -> SolverError {
+    SolverError::InvalidScene(e.to_string())
+}
+
+/// The trim region of an outer loop and holes (outer counter-clockwise, holes
+/// clockwise).
+fn region_of(
+    scene: &Scene,
+    i: usize,
+    outer: &wavelux_scene::Loop,
+    holes: &[wavelux_scene::Loop],
+) -> Result<TrimRegion, SolverError> {
+    let name = &scene.surfaces[i].name;
+    let mut loops = vec![outer.to_trim_loop(true, "scene", name).map_err(scene_err)?];
+    for h in holes {
+        loops.push(h.to_trim_loop(false, "scene", name).map_err(scene_err)?);
+    }
+    TrimRegion::new(loops).map_err(geometry_err)
+}
+
+/// Minimal enclosing parallelogram of a region's outer loops (arcs circumscribed to
+/// `1e-4` of the region size: the support only needs to enclose).
+fn enclosing_parallelogram(region: &TrimRegion) -> Result<Parallelogram2, SolverError> {
+    let (lo, hi) = region.bounds();
+    let size = (hi - lo).length();
+    let segs: Vec<BoundarySegment> = region
+        .loops
+        .iter()
+        .filter(|l| l.signed_area() > 0.0)
+        .flat_map(|l| l.edges.iter())
+        .map(|e| match *e {
+            Edge2::Segment { a, b } => BoundarySegment::Line { from: a, to: b },
+            Edge2::Arc {
+                center,
+                radius,
+                start,
+                sweep,
+            } => BoundarySegment::Arc {
+                centre: center,
+                radius,
+                start,
+                sweep,
+            },
+        })
+        .collect();
+    min_enclosing_parallelogram_of_boundary(&segs, 1e-4 * size).map_err(param_err)
+}
+
+/// The virtual support of a general planar polygon (arcs, oblique edges, holes).
+fn masked_polygon(
+    scene: &Scene,
+    i: usize,
+    poly: &wavelux_scene::PolygonShape,
+) -> Result<Support, SolverError> {
+    let region = region_of(scene, i, &poly.outer, &poly.holes)?;
+    let par = enclosing_parallelogram(&region)?;
+    let f = &poly.frame;
+    let o = f.point(par.origin);
+    let eu = f.point(par.origin + par.e1) - o;
+    let ev = f.point(par.origin + par.e2) - o;
+    let mut s = Support::parallelogram(o, eu, ev);
+    if s.normal.dot(f.normal()) < 0.0 {
+        s = Support::parallelogram(o, ev, eu);
+        let mask = Mask::new(region, par.origin, par.e2, par.e1)?;
+        return Ok(s.with_mask(mask));
+    }
+    let mask = Mask::new(region, par.origin, par.e1, par.e2)?;
+    Ok(s.with_mask(mask))
+}
+
+/// The same surface map with the requested parametrization kind.
+fn with_kind(p: Arc<dyn Parametrization>, kind: ParamKind) -> Arc<dyn Parametrization> {
+    if p.kind() == kind {
+        return p;
+    }
+    match p.shape() {
+        SurfaceShape::Cylinder(x) => Arc::new(x.with_kind(kind)),
+        SurfaceShape::Cone(x) => Arc::new(x.with_kind(kind)),
+        SurfaceShape::Sphere(x) => Arc::new(x.with_kind(kind)),
+        SurfaceShape::Spheroid(x) => Arc::new(x.with_kind(kind)),
+        SurfaceShape::Torus(x) => Arc::new(x.with_kind(kind)),
+        SurfaceShape::Revolution(x) => Arc::new(x.with_kind(kind)),
+        SurfaceShape::GeneralizedCylinder(x) => Arc::new(x.with_kind(kind)),
+        SurfaceShape::TangentDevelopable(x) => Arc::new(x.with_kind(kind)),
+        SurfaceShape::BezierPatch(x) => Arc::new(x.with_kind(kind)),
+        _ => p,
+    }
+}
+
+/// Relative tolerance for an enclosing parallelogram to count as inside `[0,1]²`.
+const SQUARE_TOL: f64 = 1e-9;
+
+/// The parallelogram of a trim region inside the unit parameter square: the minimal
+/// enclosing parallelogram when it stays inside `[0,1]²` (Ψ need not extend beyond
+/// it, e.g. a sphere past its poles), else the region's bounding box.
+fn trim_parallelogram(region: &TrimRegion) -> Result<Parallelogram2, SolverError> {
+    if let Ok(p) = enclosing_parallelogram(region) {
+        let inside = p.corners().iter().all(|c| {
+            c.x >= -SQUARE_TOL
+                && c.y >= -SQUARE_TOL
+                && c.x <= 1.0 + SQUARE_TOL
+                && c.y <= 1.0 + SQUARE_TOL
+        });
+        if inside {
+            return Ok(p);
+        }
+    }
+    let (lo, hi) = region.bounds();
+    let lo = lo.clamp(DVec2::ZERO, DVec2::ONE);
+    let hi = hi.clamp(DVec2::ZERO, DVec2::ONE);
+    if !(hi.x > lo.x && hi.y > lo.y) {
+        return Err(SolverError::InvalidScene(
+            "trim region outside the unit parameter square".into(),
+        ));
+    }
+    Ok(Parallelogram2 {
+        origin: lo,
+        e1: DVec2::new(hi.x - lo.x, 0.0),
+        e2: DVec2::new(0.0, hi.y - lo.y),
+    })
+}
+
+/// The support of an analytic patch: Ψ composed with the parallelogram enclosing its
+/// trim (identity when untrimmed), masked by the trim.
+fn patch_support(
+    scene: &Scene,
+    i: usize,
+    p: &AnalyticPatch,
+    kind: ParamKind,
+) -> Result<Support, SolverError> {
+    let name = &scene.surfaces[i].name;
+    let psi = with_kind(
+        p.surface
+            .parametrization("scene", name)
+            .map_err(scene_err)?,
+        kind,
+    );
+    match &p.trim {
+        None => Support::mapped(psi, DVec2::ZERO, DVec2::X, DVec2::Y),
+        Some(r) => {
+            if !psi.is_equal_area() {
+                return Err(unsupported(
+                    scene,
+                    i,
+                    "trimmed patch with a natural-coordinate map (trims live in the equal-area square)",
+                ));
+            }
+            let region = region_of(scene, i, &r.outer, &r.holes)?;
+            let par = trim_parallelogram(&region)?;
+            let mask = Mask::new(region, par.origin, par.e1, par.e2)?;
+            Ok(Support::mapped(psi, par.origin, par.e1, par.e2)?.with_mask(mask))
+        }
+    }
+}
+
+/// Splits a rectilinear polygon with holes (straight edges only) into rectangles in
+/// the polygon's plane; returns parallelogram supports (front = polygon front), or
+/// `None` if the polygon has arcs or oblique edges.
+fn rectilinear_pieces(
+    scene: &Scene,
+    i: usize,
+    poly: &wavelux_scene::PolygonShape,
+) -> Result<Option<Vec<Support>>, SolverError> {
     let mut loops: Vec<Vec<DVec2>> = Vec::new();
     for l in std::iter::once(&poly.outer).chain(poly.holes.iter()) {
         let mut pts = Vec::new();
         for e in &l.edges {
             match e {
                 LoopEdge::Segment { start } => pts.push(*start),
-                _ => {
-                    return Err(unsupported(
-                        scene,
-                        i,
-                        "polygon with circular arcs (needs a masked support)",
-                    ));
-                }
+                _ => return Ok(None),
             }
         }
         if pts.len() < 3 {
@@ -334,11 +747,7 @@ fn polygon_pieces(
             let q = l[(k + 1) % l.len()];
             let d = q - p;
             if d.x.abs() > tol && d.y.abs() > tol {
-                return Err(unsupported(
-                    scene,
-                    i,
-                    "non-rectilinear polygon (needs a masked support)",
-                ));
+                return Ok(None);
             }
             xs.push(p.x);
             ys.push(p.y);
@@ -398,10 +807,10 @@ fn polygon_pieces(
     if out.is_empty() {
         return Err(unsupported(scene, i, "polygon with empty interior"));
     }
-    Ok(out)
+    Ok(Some(out))
 }
 
-fn shape_pieces(scene: &Scene, i: usize) -> Result<Vec<Support>, SolverError> {
+fn shape_pieces(scene: &Scene, i: usize, kind: ParamKind) -> Result<Vec<Support>, SolverError> {
     let shape = &scene.surfaces[i].shape;
     let mut out = Vec::new();
     match shape {
@@ -424,13 +833,14 @@ fn shape_pieces(scene: &Scene, i: usize) -> Result<Vec<Support>, SolverError> {
             }
         }
         Shape::Polygon(p) => out.extend(polygon_pieces(scene, i, p)?),
-        Shape::Bezier(_) => {
-            return Err(unsupported(
-                scene,
-                i,
-                "Bézier patch (needs a curved masked support)",
-            ));
+        Shape::Bezier(b) => {
+            let name = &scene.surfaces[i].name;
+            shape.validate("scene", name).map_err(scene_err)?;
+            let psi = wavelux_param::BezierPatch::new(b.bicubic()).map_err(param_err)?;
+            let psi: Arc<dyn Parametrization> = Arc::new(psi.with_kind(kind));
+            out.push(Support::mapped(psi, DVec2::ZERO, DVec2::X, DVec2::Y)?);
         }
+        Shape::Patch(p) => out.push(patch_support(scene, i, p, kind)?),
         #[allow(unreachable_patterns)]
         _ => return Err(unsupported(scene, i, "unknown shape kind")),
     }
@@ -486,15 +896,32 @@ fn material_values(
     Ok((rho, e))
 }
 
+/// Builds the patches of a scene with equal-area supports
+/// (`build_patches_with(scene, ParamKind::EqualArea)`).
+///
+/// # Errors
+/// As [`build_patches_with`].
+pub fn build_patches(scene: &Scene) -> Result<PatchSet, SolverError> {
+    build_patches_with(scene, ParamKind::EqualArea)
+}
+
 /// Builds the patches of a scene: every surface is split into supports; every
 /// support gets one patch for the front side and, for two-sided surfaces, one for the
 /// back side (flipped normal, back material). Textured materials use the texture
 /// mean (this solver has constant reflectance and emission per support).
 ///
+/// Supports: parallelograms, triangles and mesh elements as they are; a polygon that
+/// is one full circle → a disk; a rectilinear polygon → its exact rectangles; any
+/// other polygon → its minimal enclosing parallelogram masked by the polygon; an
+/// analytic patch → its `wavelux-param` map (`kind`) composed with the parallelogram
+/// enclosing its trim, masked by the trim; a Bézier patch → its map. `kind` only
+/// changes curved maps (planar maps are equal-area either way); trimmed patches need
+/// [`ParamKind::EqualArea`] (their trims are given in the equal-area square).
+///
 /// # Errors
-/// [`SolverError::UnsupportedSurface`] for shapes without an equal-area support,
+/// [`SolverError::UnsupportedSurface`] for a trimmed patch with `ParamKind::Natural`,
 /// [`SolverError::InvalidScene`] for bad materials or degenerate pieces.
-pub fn build_patches(scene: &Scene) -> Result<PatchSet, SolverError> {
+pub fn build_patches_with(scene: &Scene, kind: ParamKind) -> Result<PatchSet, SolverError> {
     let mut patches = Vec::new();
     let mut pieces = Vec::new();
     let mut by_surface = Vec::with_capacity(scene.surfaces.len());
@@ -506,7 +933,7 @@ pub fn build_patches(scene: &Scene) -> Result<PatchSet, SolverError> {
             _ => None,
         };
         let mut ids = Vec::new();
-        for (j, s) in shape_pieces(scene, i)?.into_iter().enumerate() {
+        for (j, s) in shape_pieces(scene, i, kind)?.into_iter().enumerate() {
             let prim = pieces.len() as u32;
             pieces.push(s.clone());
             ids.push(patches.len());

@@ -15,7 +15,80 @@ use wavelux_linear::{Operator, Unsupported};
 
 use crate::basis::TreeBasis;
 use crate::hierarchy::Hierarchy;
-use crate::support::Patch;
+use crate::mask::Coverage;
+use crate::support::{Patch, Support};
+use crate::transfer::Region;
+
+/// Gauss points per axis of [`real_integral`].
+const MOMENT_GAUSS: usize = 4;
+/// Subdivision depth of partial cells in [`real_integral`].
+const MOMENT_DEPTH: u32 = 3;
+
+/// `∫_{cell ∩ real} ψ_a(local) dA` over the sub-square `sub` of the leaf `leaf`
+/// (accumulated into `m`) and the real area (returned): full cells by a 4×4 Gauss rule
+/// of the area element, partial cells split 3 levels deep, then Gauss points weighted
+/// by the real fraction of their Gauss cell (VirtualMesh §4.2, Fig. 7). The area is
+/// exact for equal-area maps (the fractions are).
+fn real_integral(
+    sup: &Support,
+    basis: &TreeBasis,
+    leaf: &Region,
+    sub: &Region,
+    depth: u32,
+    m: &mut [f64],
+    buf: &mut [f64],
+) -> f64 {
+    let cov = sup.coverage(sub.s0, sub.t0, sub.h);
+    if cov == Coverage::Empty {
+        return 0.0;
+    }
+    if cov == Coverage::Partial && depth < MOMENT_DEPTH {
+        let h = 0.5 * sub.h;
+        let mut a = 0.0;
+        for c in 0..4 {
+            let r = Region {
+                patch: sub.patch,
+                s0: sub.s0 + h * (c % 2) as f64,
+                t0: sub.t0 + h * (c / 2) as f64,
+                h,
+            };
+            a += real_integral(sup, basis, leaf, &r, depth + 1, m, buf);
+        }
+        return a;
+    }
+    let Ok(g) = wavelux_quadrature::GaussLegendre::new(MOMENT_GAUSS) else {
+        return 0.0;
+    };
+    let (x, w) = g.unit();
+    let mut c = [0.0; MOMENT_GAUSS + 1];
+    for i in 0..MOMENT_GAUSS {
+        c[i + 1] = c[i] + w[i];
+    }
+    let mut area = 0.0;
+    for j in 0..MOMENT_GAUSS {
+        for i in 0..MOMENT_GAUSS {
+            let (s, t) = (sub.s0 + sub.h * x[i], sub.t0 + sub.h * x[j]);
+            let mut wt = w[i] * w[j] * sub.h * sub.h * sup.jacobian(s, t);
+            if cov == Coverage::Partial {
+                wt *= sup.real_fraction_rect(
+                    sub.s0 + sub.h * c[i],
+                    sub.t0 + sub.h * c[j],
+                    sub.h * w[i],
+                    sub.h * w[j],
+                );
+            }
+            if wt == 0.0 {
+                continue;
+            }
+            area += wt;
+            basis.eval((s - leaf.s0) / leaf.h, (t - leaf.t0) / leaf.h, buf);
+            for (mv, b) in m.iter_mut().zip(buf.iter()) {
+                *mv += wt * b;
+            }
+        }
+    }
+    area
+}
 
 /// The assembled system: hierarchy, links, per-leaf reflectance and emission.
 #[derive(Debug, Clone)]
@@ -34,6 +107,14 @@ pub struct System {
     pub patch_emission: Vec<[f64; 3]>,
     /// Patch of each node.
     node_patch: Vec<u32>,
+    /// World area of the real part of each leaf (VirtualMesh §4.2: only real points
+    /// emit; exact for equal-area maps).
+    pub leaf_real_area: Vec<f64>,
+    /// `∫_{leaf ∩ real} φ_a dA` per leaf (`n` each): the real-area integrals of the
+    /// leaf's orthonormal functions, so that `∫_real B dA = Σ_a b_a · m_a`.
+    pub leaf_real_moments: Vec<f64>,
+    /// Leaves by coverage: `[empty, partial, full]` (unmasked leaves are full).
+    pub coverage_counts: [usize; 3],
     /// Nodes of each patch in level order.
     patch_nodes: Vec<Vec<u32>>,
 }
@@ -53,6 +134,44 @@ impl System {
             .map(|&i| patches[h.keys[i as usize].patch as usize].reflectance)
             .collect();
         let node_patch: Vec<u32> = h.keys.iter().map(|k| k.patch).collect();
+        let n = h.n;
+        let ints = basis.integrals().to_vec();
+        let per_leaf: Vec<(f64, Vec<f64>, Coverage)> = h
+            .leaves
+            .par_iter()
+            .map(|&i| {
+                let k = h.keys[i as usize];
+                let sup = &patches[k.patch as usize].support;
+                let r = k.region();
+                let a = node_area[i as usize];
+                let cov = sup.coverage(r.s0, r.t0, r.h);
+                match cov {
+                    Coverage::Empty => (0.0, vec![0.0; n], cov),
+                    Coverage::Full if sup.is_equal_area() => {
+                        (a, ints.iter().map(|v| v * a.sqrt()).collect(), cov)
+                    }
+                    _ => {
+                        let mut m = vec![0.0; n];
+                        let mut buf = vec![0.0; n];
+                        let area = real_integral(sup, basis, &r, &r, 0, &mut m, &mut buf);
+                        m.iter_mut().for_each(|v| *v /= a.sqrt());
+                        (area, m, cov)
+                    }
+                }
+            })
+            .collect();
+        let mut coverage_counts = [0usize; 3];
+        let mut leaf_real_area = Vec::with_capacity(per_leaf.len());
+        let mut leaf_real_moments = Vec::with_capacity(per_leaf.len() * n);
+        for (a, m, c) in per_leaf {
+            leaf_real_area.push(a);
+            leaf_real_moments.extend(m);
+            coverage_counts[match c {
+                Coverage::Empty => 0,
+                Coverage::Partial => 1,
+                Coverage::Full => 2,
+            }] += 1;
+        }
         let mut patch_nodes = vec![Vec::new(); patches.len()];
         for (i, k) in h.keys.iter().enumerate() {
             patch_nodes[k.patch as usize].push(i as u32);
@@ -66,6 +185,9 @@ impl System {
             patch_emission: patches.iter().map(|p| p.emission).collect(),
             node_patch,
             patch_nodes,
+            leaf_real_area,
+            leaf_real_moments,
+            coverage_counts,
         }
     }
 

@@ -46,6 +46,7 @@ use wavelux_quadrature::{Corner, GaussLegendre, RuleNd, SquarePair, singular::sq
 
 use crate::basis::TreeBasis;
 use crate::error::SolverError;
+use crate::mask::Coverage;
 use crate::support::{Patch, SupportMap};
 
 /// How visibility enters the transfer blocks.
@@ -116,6 +117,14 @@ pub struct TransferCtx<'a> {
     oracle_visibility: bool,
     gx: Vec<f64>,
     gw: Vec<f64>,
+    /// Cumulative Gauss weights `0 = c_0 < … < c_q = 1`: point `i` owns `[c_i, c_{i+1}]`
+    /// (the nodes interlace with these partial sums), the cell whose real fraction
+    /// weights it on a partial emitter (VirtualMesh §4.2, Fig. 7).
+    gc: Vec<f64>,
+    /// A `(q+1)`-point Gauss rule (points, weights, cumulative weights) for the emitter
+    /// of a pair of identical sub-squares (self-links of curved supports): its nodes
+    /// never coincide with the receiver's `q` nodes, where the kernel is undefined.
+    alt: (Vec<f64>, Vec<f64>, Vec<f64>),
     /// Basis values at the `q×q` Gauss points of the unit cell: `[(jt·q + js)·n + a]`.
     table: Vec<f64>,
     near_field: f64,
@@ -174,6 +183,21 @@ impl<'a> TransferCtx<'a> {
         let q = opts.quad_points;
         let g = GaussLegendre::new(q).map_err(dep("quadrature"))?;
         let (gx, gw) = g.unit();
+        let mut gc = vec![0.0; q + 1];
+        for i in 0..q {
+            gc[i + 1] = gc[i] + gw[i];
+        }
+        gc[q] = 1.0;
+        let alt = {
+            let g = GaussLegendre::new(q + 1).map_err(dep("quadrature"))?;
+            let (x, w) = g.unit();
+            let mut c = vec![0.0; q + 2];
+            for i in 0..=q {
+                c[i + 1] = c[i] + w[i];
+            }
+            c[q + 1] = 1.0;
+            (x, w, c)
+        };
         let n = basis.n();
         let mut table = vec![0.0; q * q * n];
         for jt in 0..q {
@@ -219,6 +243,8 @@ impl<'a> TransferCtx<'a> {
             oracle_visibility: opts.oracle_visibility,
             gx,
             gw,
+            gc,
+            alt,
             table,
             near_field: opts.near_field,
             max_split_depth: opts.max_split_depth,
@@ -244,17 +270,23 @@ impl<'a> TransferCtx<'a> {
     }
 
     /// Whether some point of `e` is strictly in front of `r`'s plane and vice versa
-    /// (a necessary condition for a non-zero kernel).
+    /// (a necessary condition for a non-zero kernel). A curved side has no single
+    /// plane: its half of the test is skipped (conservative), and an emitter region
+    /// without real points ([`Coverage::Empty`]) never faces anything.
     pub fn facing(&self, r: &Region, e: &Region) -> bool {
         let pr = &self.patches[r.patch];
         let pe = &self.patches[e.patch];
+        if pe.support.mask.is_some() && pe.support.coverage(e.s0, e.t0, e.h) == Coverage::Empty {
+            return false;
+        }
         let cr = sample_points(pr, r);
         let ce = sample_points(pe, e);
         let (_, rad_r) = pr.support.bounding_sphere(r.s0, r.t0, r.h);
         let (_, rad_e) = pe.support.bounding_sphere(e.s0, e.t0, e.h);
         let tol = 1e-9 * (rad_r + rad_e);
         let front = |pts: &[DVec3], o: DVec3, n: DVec3| pts.iter().any(|p| n.dot(*p - o) > tol);
-        front(&ce, cr[0], pr.support.normal) && front(&cr, ce[0], pe.support.normal)
+        (!pr.support.is_planar() || front(&ce, cr[0], pr.support.normal))
+            && (!pe.support.is_planar() || front(&cr, ce[0], pe.support.normal))
     }
 
     /// The transfer block (`n × n`, `[a_receiver * n + b_emitter]`) of the node pair.
@@ -294,10 +326,10 @@ impl<'a> TransferCtx<'a> {
             let (sj, tj) = ((j % 4) as f64 + 0.5, (j / 4) as f64 + 0.5);
             let x = pr
                 .support
-                .point(r.s0 + r.h * si / 4.0, r.t0 + r.h * ti / 4.0);
+                .visibility_point(r.s0 + r.h * si / 4.0, r.t0 + r.h * ti / 4.0);
             let y = pe
                 .support
-                .point(e.s0 + e.h * sj / 4.0, e.t0 + e.h * tj / 4.0);
+                .visibility_point(e.s0 + e.h * sj / 4.0, e.t0 + e.h * tj / 4.0);
             if self.visible(x, pr, y, pe, rays) {
                 vis += 1;
             }
@@ -327,7 +359,9 @@ impl<'a> TransferCtx<'a> {
             self.regular(rn, en, rs, es, with_vis, out, evals, rays);
             return;
         }
-        let rule = if pr.support.is_affine() && pe.support.is_affine() {
+        let emitter_full =
+            pe.support.mask.is_none() || pe.support.coverage(es.s0, es.t0, es.h) == Coverage::Full;
+        let rule = if pr.support.is_affine() && pe.support.is_affine() && emitter_full {
             self.singular_rule(pr, rs, pe, es, rad_r.max(rad_e))
         } else {
             None
@@ -336,7 +370,15 @@ impl<'a> TransferCtx<'a> {
             self.apply_rule(rule, rn, en, rs, es, with_vis, out, evals, rays);
             return;
         }
-        if depth >= self.max_split_depth {
+        // Pairs within one curved patch have a bounded kernel (cos·cos/(πr²) tends to
+        // a curvature term on a smooth surface): one split resolves the diagonal,
+        // identical sub-squares use the offset (q+1)-point emitter rule.
+        let limit = if rs.patch == es.patch && !pr.support.is_planar() {
+            self.max_split_depth.min(1)
+        } else {
+            self.max_split_depth
+        };
+        if depth >= limit {
             self.near_limit(rn, en, rs, es, with_vis, out, evals, rays);
             return;
         }
@@ -387,6 +429,11 @@ impl<'a> TransferCtx<'a> {
             (Some(a), Some(b)) => area_form_factor(&a, &b).ok(),
             _ => None,
         };
+        // The exact value is that of the whole emitter piece: rescale only when it is
+        // all real.
+        let exact = exact.filter(|_| {
+            pe.support.mask.is_none() || pe.support.coverage(es.s0, es.t0, es.h) == Coverage::Full
+        });
         let Some(exact) = exact.filter(|v| v.is_finite() && *v >= 0.0) else {
             self.regular(rn, en, rs, es, with_vis, out, evals, rays);
             return;
@@ -394,7 +441,6 @@ impl<'a> TransferCtx<'a> {
         // Unoccluded Gauss value of ∫∫ G over the pieces.
         let q = self.gx.len();
         let ar = pr.support.area * rs.h * rs.h;
-        let ae = pe.support.area * es.h * es.h;
         let mut gauss = 0.0;
         for jt in 0..q {
             for js in 0..q {
@@ -409,7 +455,8 @@ impl<'a> TransferCtx<'a> {
                             .point(es.s0 + es.h * self.gx[ks], es.t0 + es.h * self.gx[kt]);
                         *evals += 1;
                         let g = kernel(x, pr.support.normal, y, pe.support.normal);
-                        gauss += wx * self.gw[ks] * self.gw[kt] * ae * g;
+                        let wy = self.emitter_weight(pe, es, ks, kt);
+                        gauss += wx * wy * g;
                     }
                 }
             }
@@ -507,11 +554,19 @@ impl<'a> TransferCtx<'a> {
             let x = pr.support.point(s, t);
             let y = pe.support.point(u, v);
             *evals += 1;
-            let mut g = kernel(x, pr.support.normal, y, pe.support.normal);
+            let mut g = kernel(x, pr.support.normal_at(s, t), y, pe.support.normal_at(u, v));
             if g == 0.0 {
                 continue;
             }
-            if with_vis && !self.visible(x, pr, y, pe, rays) {
+            if with_vis
+                && !self.visible(
+                    pr.support.visibility_point(s, t),
+                    pr,
+                    pe.support.visibility_point(u, v),
+                    pe,
+                    rays,
+                )
+            {
                 g = 0.0;
             }
             if g == 0.0 {
@@ -544,56 +599,108 @@ impl<'a> TransferCtx<'a> {
         rays: &mut u64,
     ) {
         let n = self.basis.n();
-        let q = self.gx.len();
         let pr = &self.patches[rs.patch];
         let pe = &self.patches[es.patch];
-        let side = |p: &Patch, node: &Region, sub: &Region| {
-            let same = node == sub;
-            let mut pts = Vec::with_capacity(q * q);
-            let mut vals = vec![0.0; q * q * n];
-            let a = p.support.area * sub.h * sub.h;
-            for jt in 0..q {
-                for js in 0..q {
-                    let s = sub.s0 + sub.h * self.gx[js];
-                    let t = sub.t0 + sub.h * self.gx[jt];
-                    pts.push((p.support.point(s, t), self.gw[js] * self.gw[jt] * a));
-                    let dst = &mut vals[(jt * q + js) * n..][..n];
-                    if same {
-                        dst.copy_from_slice(&self.table[(jt * q + js) * n..][..n]);
-                    } else {
-                        self.basis
-                            .eval((s - node.s0) / node.h, (t - node.t0) / node.h, dst);
-                    }
-                }
-            }
-            (pts, vals)
-        };
-        let (xr, vr) = side(pr, rn, rs);
-        let (xe, ve) = side(pe, en, es);
+        let (xr, vr) = self.side_samples(pr, rn, rs, false, false);
+        let (xe, ve) = self.side_samples(pe, en, es, true, rs == es);
         let mut tmp = vec![0.0; n];
-        for (i, (x, wx)) in xr.iter().enumerate() {
+        for (i, sr) in xr.iter().enumerate() {
+            if sr.w == 0.0 {
+                continue;
+            }
             tmp.iter_mut().for_each(|v| *v = 0.0);
-            for (j, (y, wy)) in xe.iter().enumerate() {
+            for (j, se) in xe.iter().enumerate() {
+                if se.w == 0.0 {
+                    continue;
+                }
                 *evals += 1;
-                let g = kernel(*x, pr.support.normal, *y, pe.support.normal);
+                let g = kernel(sr.x, sr.n, se.x, se.n);
                 if g == 0.0 {
                     continue;
                 }
-                if with_vis && !self.visible(*x, pr, *y, pe, rays) {
+                if with_vis && !self.visible(sr.v, pr, se.v, pe, rays) {
                     continue;
                 }
-                let f = g * wy;
+                let f = g * se.w;
                 for b in 0..n {
                     tmp[b] += f * ve[j * n + b];
                 }
             }
             for a in 0..n {
-                let fa = wx * vr[i * n + a];
+                let fa = sr.w * vr[i * n + a];
                 for b in 0..n {
                     out[a * n + b] += fa * tmp[b];
                 }
             }
         }
+    }
+
+    /// Weight of emitter Gauss point `(ks, kt)` of the sub-square `es`: Gauss weight ×
+    /// area element × real fraction of the point's Gauss cell (VirtualMesh §4.2).
+    fn emitter_weight(&self, pe: &Patch, es: &Region, ks: usize, kt: usize) -> f64 {
+        weight_in(pe, es, (&self.gx, &self.gw, &self.gc), ks, kt)
+    }
+
+    /// The `q×q` Gauss samples of a sub-square: point, normal, ṽ point and weight
+    /// (receivers: the whole support's `area·h²`, VirtualMesh §4.2 "S is a receiver";
+    /// emitters: [`Self::emitter_weight`]), and the node's basis values there.
+    fn side_samples(
+        &self,
+        p: &Patch,
+        node: &Region,
+        sub: &Region,
+        emitter: bool,
+        alt: bool,
+    ) -> (Vec<Sample>, Vec<f64>) {
+        let n = self.basis.n();
+        let (gx, gw, gc) = if alt {
+            (&self.alt.0, &self.alt.1, &self.alt.2)
+        } else {
+            (&self.gx, &self.gw, &self.gc)
+        };
+        let q = gx.len();
+        let same = node == sub && !alt;
+        let mut pts = Vec::with_capacity(q * q);
+        let mut vals = vec![0.0; q * q * n];
+        let a = p.support.area * sub.h * sub.h;
+        let cov = if emitter && p.support.mask.is_some() {
+            p.support.coverage(sub.s0, sub.t0, sub.h)
+        } else {
+            Coverage::Full
+        };
+        for jt in 0..q {
+            for js in 0..q {
+                let s = sub.s0 + sub.h * gx[js];
+                let t = sub.t0 + sub.h * gx[jt];
+                let w = match (emitter, cov) {
+                    (_, Coverage::Empty) => 0.0,
+                    (false, _) => gw[js] * gw[jt] * a,
+                    (true, Coverage::Full) => {
+                        gw[js] * gw[jt] * sub.h * sub.h * p.support.jacobian(s, t)
+                    }
+                    (true, Coverage::Partial) => weight_in(p, sub, (gx, gw, gc), js, jt),
+                };
+                let x = p.support.point(s, t);
+                pts.push(Sample {
+                    x,
+                    n: p.support.normal_at(s, t),
+                    v: if p.support.mask.is_some() {
+                        p.support.visibility_point(s, t)
+                    } else {
+                        x
+                    },
+                    w,
+                });
+                let dst = &mut vals[(jt * q + js) * n..][..n];
+                if same {
+                    dst.copy_from_slice(&self.table[(jt * q + js) * n..][..n]);
+                } else {
+                    self.basis
+                        .eval((s - node.s0) / node.h, (t - node.t0) / node.h, dst);
+                }
+            }
+        }
+        (pts, vals)
     }
 
     /// The oracle estimate of a node pair (see the module docs); also returns the
@@ -605,27 +712,29 @@ impl<'a> TransferCtx<'a> {
         let pr = &self.patches[r.patch];
         let pe = &self.patches[e.patch];
         let pos: Vec<f64> = (0..m).map(|i| (i as f64 + 0.5) / m as f64).collect();
-        let xs: Vec<DVec3> = (0..m * m)
-            .map(|i| {
-                pr.support
-                    .point(r.s0 + r.h * pos[i % m], r.t0 + r.h * pos[i / m])
-            })
-            .collect();
-        let ys: Vec<DVec3> = (0..m * m)
-            .map(|i| {
-                pe.support
-                    .point(e.s0 + e.h * pos[i % m], e.t0 + e.h * pos[i / m])
-            })
-            .collect();
+        let grid = |p: &Patch, g: &Region| -> Vec<(DVec3, DVec3, DVec3)> {
+            (0..m * m)
+                .map(|i| {
+                    let (s, t) = (g.s0 + g.h * pos[i % m], g.t0 + g.h * pos[i / m]);
+                    (
+                        p.support.point(s, t),
+                        p.support.normal_at(s, t),
+                        p.support.visibility_point(s, t),
+                    )
+                })
+                .collect()
+        };
+        let xs = grid(pr, r);
+        let ys = grid(pe, e);
         let mut k = vec![0.0; m * m * m * m];
         let mut rays = 0u64;
-        for (i, x) in xs.iter().enumerate() {
-            for (j, y) in ys.iter().enumerate() {
-                let mut g = kernel(*x, pr.support.normal, *y, pe.support.normal);
+        for (i, (x, nx, vx)) in xs.iter().enumerate() {
+            for (j, (y, ny, vy)) in ys.iter().enumerate() {
+                let mut g = kernel(*x, *nx, *y, *ny);
                 if g > 0.0
                     && self.oracle_visibility
                     && self.visibility != Visibility::Off
-                    && !self.visible(*x, pr, *y, pe, &mut rays)
+                    && !self.visible(*vx, pr, *vy, pe, &mut rays)
                 {
                     g = 0.0;
                 }
@@ -716,4 +825,30 @@ fn sample_points(p: &Patch, r: &Region) -> Vec<DVec3> {
         v.push(p.support.point(r.s0 + 0.5 * r.h, r.t0 + r.h));
     }
     v
+}
+
+/// Weight of point `(ks, kt)` of a tensor rule `(x, w, c)` on an emitter sub-square:
+/// rule weight × area element × real fraction of the point's cell `[c_k, c_{k+1}]²`.
+fn weight_in(pe: &Patch, es: &Region, rule: (&[f64], &[f64], &[f64]), ks: usize, kt: usize) -> f64 {
+    let (x, w, c) = rule;
+    let (s, t) = (es.s0 + es.h * x[ks], es.t0 + es.h * x[kt]);
+    let mut wt = w[ks] * w[kt] * es.h * es.h * pe.support.jacobian(s, t);
+    if pe.support.mask.is_some() {
+        wt *= pe.support.real_fraction_rect(
+            es.s0 + es.h * c[ks],
+            es.t0 + es.h * c[kt],
+            es.h * w[ks],
+            es.h * w[kt],
+        );
+    }
+    wt
+}
+
+/// One quadrature sample of a side: point, unit normal, the point used for
+/// visibility (ṽ, VirtualMesh §4.1) and the weight.
+struct Sample {
+    x: DVec3,
+    n: DVec3,
+    v: DVec3,
+    w: f64,
 }

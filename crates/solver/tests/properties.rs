@@ -315,9 +315,35 @@ fn rejects_bad_input() {
         material: m,
         sides: Sidedness::OneSided,
     });
-    let err = solve(&bez, &cfg()).unwrap_err();
+    // Bézier patches have virtual supports; a trimmed patch cannot use natural
+    // coordinates (its trim lives in the equal-area square).
+    assert!(wavelux_solver::build_patches(&bez).is_ok());
+    let mut trimmed = Scene::new("trimmed");
+    let m = trimmed.add_material(Material::lambertian("m", Rgb::grey(0.5), Rgb::BLACK));
+    trimmed.add_surface(Surface {
+        name: "patch".into(),
+        shape: Shape::Patch(wavelux_scene::AnalyticPatch {
+            surface: wavelux_scene::AnalyticSurface::Sphere {
+                placement: wavelux_scene::Placement {
+                    origin: DVec3::ZERO,
+                    axis: DVec3::Z,
+                    reference: DVec3::X,
+                },
+                radius: 1.0,
+                azimuth: (0.0, 3.0),
+                latitude: (-1.0, 1.0),
+            },
+            trim: Some(wavelux_scene::Region {
+                outer: wavelux_scene::Loop::circle(glam::DVec2::splat(0.5), 0.3),
+                holes: vec![],
+            }),
+        }),
+        material: m,
+        sides: Sidedness::OneSided,
+    });
+    let err = wavelux_solver::build_patches_with(&trimmed, wavelux_solver::ParamKind::Natural)
+        .unwrap_err();
     assert!(matches!(err, SolverError::UnsupportedSurface { .. }));
-    assert!(err.to_string().contains("Virtual Mesh"));
     // Keep the low-level API honest: an empty link list compiles to roots only.
     let h = Hierarchy::compile(1, 2, &[]);
     assert_eq!(h.node_count(), 2);

@@ -1,0 +1,628 @@
+//! Virtual supports (VirtualMesh §3–§5.4) in the gathering solver: exact emission of
+//! trimmed emitters, windows in masked blockers against exact point-to-polygon form
+//! factors, symmetry on a sphere, closed curved enclosures (self-links) and extreme
+//! trims.
+
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+use glam::{DVec2, DVec3};
+use wavelux_geometry::formfactor::point_to_polygon;
+use wavelux_scene::shape::PlaneFrame;
+use wavelux_scene::{
+    AnalyticPatch, AnalyticSurface, Loop, Material, Placement, PolygonShape, Region, Rgb, Scene,
+    Shape, Sidedness, Surface,
+};
+use wavelux_solver::{
+    BasisKind, Coverage, LinearMethod, ParamKind, SolverConfig, SupportMap, build_patches,
+    build_patches_with, solve,
+};
+
+fn material(scene: &mut Scene, name: &str, rho: f64, e: f64) -> usize {
+    scene.add_material(Material::lambertian(name, Rgb::grey(rho), Rgb::grey(e)))
+}
+
+fn add(scene: &mut Scene, name: &str, shape: Shape, m: usize, sides: Sidedness) {
+    scene.add_surface(Surface {
+        name: name.into(),
+        shape,
+        material: m,
+        sides,
+    });
+}
+
+fn frame(origin: DVec3, u: DVec3, v: DVec3) -> PlaneFrame {
+    PlaneFrame::from_directions(origin, u, v).unwrap()
+}
+
+fn polygon(f: PlaneFrame, outer: Loop, holes: Vec<Loop>) -> Shape {
+    Shape::Polygon(PolygonShape {
+        frame: f,
+        outer,
+        holes,
+    })
+}
+
+fn placement(origin: DVec3) -> Placement {
+    Placement {
+        origin,
+        axis: DVec3::Z,
+        reference: DVec3::X,
+    }
+}
+
+fn sphere(origin: DVec3, radius: f64, trim: Option<Region>) -> Shape {
+    Shape::Patch(AnalyticPatch {
+        surface: AnalyticSurface::Sphere {
+            placement: placement(origin),
+            radius,
+            azimuth: (0.0, TAU),
+            latitude: (-FRAC_PI_2, FRAC_PI_2),
+        },
+        trim,
+    })
+}
+
+fn cheap() -> SolverConfig {
+    SolverConfig {
+        basis: BasisKind::Haar,
+        eps: 1e-2,
+        max_level: 2,
+        max_split_depth: 1,
+        linear_method: LinearMethod::Picard,
+        max_iterations: 50,
+        tolerance: 1e-9,
+        ..SolverConfig::default()
+    }
+}
+
+/// A receiver below an emitter (so the emitter has links), plus the emitter shape.
+fn emitter_scene(shape: Shape) -> Scene {
+    let mut s = Scene::new("emitter");
+    let e = material(&mut s, "lamp", 0.0, 2.5);
+    let r = material(&mut s, "floor", 0.5, 0.0);
+    add(&mut s, "lamp", shape, e, Sidedness::OneSided);
+    add(
+        &mut s,
+        "floor",
+        Shape::parallelogram(
+            DVec3::new(-3.0, -3.0, -4.0),
+            DVec3::new(6.0, 0.0, 0.0),
+            DVec3::new(0.0, 6.0, 0.0),
+        ),
+        r,
+        Sidedness::OneSided,
+    );
+    s
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs().max(1e-300)
+}
+
+#[test]
+fn trimmed_emitters_emit_exactly_real_area_times_exitance() {
+    let down = frame(DVec3::ZERO, DVec3::Y, DVec3::X); // normal −z
+    let ring = polygon(
+        down,
+        Loop::circle(DVec2::ZERO, 1.0),
+        vec![Loop::circle(DVec2::new(0.2, -0.1), 0.4)],
+    );
+    let pentagon = polygon(
+        down,
+        Loop::polygon(
+            &(0..5)
+                .map(|k| DVec2::from_angle(TAU * k as f64 / 5.0 + 0.3) * 0.9)
+                .collect::<Vec<_>>(),
+        ),
+        vec![],
+    );
+    // Lower cap of a sphere, trimmed by a disk and a triangle hole in the equal-area
+    // square (the cap faces the floor).
+    let trim = Region {
+        outer: Loop::circle(DVec2::new(0.5, 0.25), 0.2),
+        holes: vec![Loop::polygon(&[
+            DVec2::new(0.45, 0.2),
+            DVec2::new(0.55, 0.2),
+            DVec2::new(0.5, 0.3),
+        ])],
+    };
+    let cap = sphere(DVec3::ZERO, 0.8, Some(trim));
+    // A trim covering 1e-6 of the square.
+    let tiny = sphere(
+        DVec3::ZERO,
+        0.8,
+        Some(Region {
+            outer: Loop::circle(DVec2::new(0.3, 0.1), (1e-6 / PI).sqrt()),
+            holes: vec![],
+        }),
+    );
+    // A sliver triangle (aspect 1e-5).
+    let sliver = polygon(
+        down,
+        Loop::polygon(&[
+            DVec2::new(-1.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(0.3, 2e-5),
+        ]),
+        vec![],
+    );
+    for (name, shape) in [
+        ("ring", ring),
+        ("pentagon", pentagon),
+        ("trimmed sphere", cap),
+        ("tiny trim", tiny),
+        ("sliver", sliver),
+    ] {
+        let scene = emitter_scene(shape);
+        let exact = scene.emitted_power()[0];
+        let ps = build_patches(&scene).unwrap();
+        let lamp = &ps.patches[ps.by_surface[0][0]];
+        assert!(
+            lamp.support.mask.is_some(),
+            "{name}: expected a virtual support"
+        );
+        assert!(
+            rel(lamp.support.real_area() * 2.5, exact) < 1e-9,
+            "{name}: real area {} vs {}",
+            lamp.support.real_area() * 2.5,
+            exact
+        );
+        let sol = solve(&scene, &cheap()).unwrap();
+        let emitted = sol.energy.emitted[0];
+        println!(
+            "{name}: emitted {emitted:.12} exact {exact:.12} leaves e/p/f {}/{}/{}",
+            sol.stats.cells_empty, sol.stats.cells_partial, sol.stats.cells_full
+        );
+        assert!(rel(emitted, exact) < 1e-6, "{name}: {emitted} vs {exact}");
+        // The floor receives no more than the lamp emits.
+        assert!(sol.energy.absorbed[0] <= emitted * (1.0 + 1e-9));
+    }
+}
+
+/// A large lamp above a black wall with a window; the floor's radiosity is
+/// `ρ · E · F(x → window)` averaged over the floor patch (the lamp covers every line
+/// of sight through the window).
+fn window_case(hole: Loop, exact_poly: &[DVec3]) {
+    let mut s = Scene::new("window");
+    let lamp = material(&mut s, "lamp", 0.0, 1.0);
+    let black = material(&mut s, "black", 0.0, 0.0);
+    let floor = material(&mut s, "floor", 0.5, 0.0);
+    add(
+        &mut s,
+        "lamp",
+        Shape::parallelogram(
+            DVec3::new(-0.8, -0.8, 2.0),
+            DVec3::new(0.0, 1.6, 0.0),
+            DVec3::new(1.6, 0.0, 0.0),
+        ),
+        lamp,
+        Sidedness::OneSided,
+    );
+    let wall = polygon(
+        frame(DVec3::new(0.0, 0.0, 1.0), DVec3::X, DVec3::Y),
+        Loop::polygon(&[
+            DVec2::new(-2.0, -2.0),
+            DVec2::new(2.0, -2.0),
+            DVec2::new(2.0, 2.0),
+            DVec2::new(-2.0, 2.0),
+        ]),
+        vec![hole],
+    );
+    add(
+        &mut s,
+        "wall",
+        wall,
+        black,
+        Sidedness::TwoSided { back: black },
+    );
+    let half = 0.01;
+    add(
+        &mut s,
+        "floor",
+        Shape::parallelogram(
+            DVec3::new(-half, -half, 0.0),
+            DVec3::new(2.0 * half, 0.0, 0.0),
+            DVec3::new(0.0, 2.0 * half, 0.0),
+        ),
+        floor,
+        Sidedness::OneSided,
+    );
+    // Uniform refinement of the lamp only (kernel oracle without visibility, tiny ε,
+    // the floor below `min_area`): 32×32 lamp cells of 4×4 Gauss points.
+    let cfg = SolverConfig {
+        basis: BasisKind::Haar,
+        eps: 1e-12,
+        max_level: 5,
+        min_area: 2e-4,
+        quad_points: 4,
+        oracle_visibility: false,
+        split: wavelux_solver::SplitPolicy::Larger,
+        max_split_depth: 0,
+        linear_method: LinearMethod::Picard,
+        max_iterations: 10,
+        tolerance: 1e-12,
+        ..SolverConfig::default()
+    };
+    let sol = solve(&s, &cfg).unwrap();
+    let fp = s.surfaces.iter().position(|x| x.name == "floor").unwrap();
+    let got = sol.surface_average(fp)[0];
+    // Exact: average of the point-to-polygon form factor over the floor (8×8 Gauss).
+    let g = wavelux_quadrature::GaussLegendre::new(8).unwrap();
+    let (x, w) = g.unit();
+    let mut f = 0.0;
+    for i in 0..8 {
+        for j in 0..8 {
+            let p = DVec3::new(-half + 2.0 * half * x[i], -half + 2.0 * half * x[j], 0.0);
+            f += w[i] * w[j] * point_to_polygon(p, DVec3::Z, exact_poly).unwrap();
+        }
+    }
+    let want = 0.5 * f;
+    println!(
+        "window: B {got:.6} exact {want:.6} rel {:.2e}, links {}, rays {}",
+        rel(got, want),
+        sol.stats.links,
+        sol.stats.rays
+    );
+    assert!(rel(got, want) < 0.02, "window: {got} vs {want}");
+}
+
+#[test]
+fn light_through_a_triangular_window_matches_exact_form_factor() {
+    let tri = [
+        DVec2::new(-0.3, -0.25),
+        DVec2::new(0.35, -0.2),
+        DVec2::new(0.0, 0.3),
+    ];
+    let exact: Vec<DVec3> = tri.iter().map(|p| DVec3::new(p.x, p.y, 1.0)).collect();
+    window_case(Loop::polygon(&tri), &exact);
+}
+
+#[test]
+fn virtual_supports_of_every_kind() {
+    let mut s = Scene::new("kinds");
+    let m = material(&mut s, "m", 0.5, 1.0);
+    let up = frame(DVec3::ZERO, DVec3::X, DVec3::Y);
+    add(
+        &mut s,
+        "arch",
+        polygon(
+            up,
+            Loop {
+                edges: vec![
+                    wavelux_scene::LoopEdge::Segment {
+                        start: DVec2::new(-1.0, 0.0),
+                    },
+                    wavelux_scene::LoopEdge::Segment {
+                        start: DVec2::new(1.0, 0.0),
+                    },
+                    wavelux_scene::LoopEdge::Segment {
+                        start: DVec2::new(1.0, 1.0),
+                    },
+                    wavelux_scene::LoopEdge::Arc {
+                        start: DVec2::new(1.0, 1.0),
+                        center: DVec2::new(0.0, 1.0),
+                        ccw: true,
+                    },
+                    wavelux_scene::LoopEdge::Segment {
+                        start: DVec2::new(-1.0, 1.0),
+                    },
+                ],
+            },
+            vec![],
+        ),
+        m,
+        Sidedness::OneSided,
+    );
+    for (i, surface) in [
+        AnalyticSurface::Cylinder {
+            placement: placement(DVec3::new(5.0, 0.0, 0.0)),
+            radius: 1.0,
+            azimuth: (0.0, PI),
+            height: (0.0, 2.0),
+        },
+        AnalyticSurface::Cone {
+            placement: placement(DVec3::new(-5.0, 0.0, 0.0)),
+            radius: 1.0,
+            height: 1.0,
+            azimuth: (0.0, TAU),
+            generator: (0.2, 1.0),
+        },
+        AnalyticSurface::Torus {
+            placement: placement(DVec3::new(0.0, 6.0, 0.0)),
+            major: 2.0,
+            minor: 0.5,
+            azimuth: (0.0, FRAC_PI_2),
+            tube: (0.0, PI),
+        },
+        AnalyticSurface::Spheroid {
+            placement: placement(DVec3::new(0.0, -6.0, 0.0)),
+            equatorial: 1.0,
+            polar: 0.6,
+            azimuth: (0.0, TAU),
+            latitude: (-1.0, 1.0),
+        },
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let trim = (i % 2 == 0).then(|| Region {
+            outer: Loop::polygon(&[
+                DVec2::new(0.1, 0.1),
+                DVec2::new(0.9, 0.2),
+                DVec2::new(0.6, 0.9),
+            ]),
+            holes: vec![],
+        });
+        add(
+            &mut s,
+            "patch",
+            Shape::Patch(AnalyticPatch { surface, trim }),
+            m,
+            Sidedness::TwoSided { back: m },
+        );
+    }
+    let ps = build_patches(&s).unwrap();
+    assert_eq!(ps.pieces.len(), 5);
+    for p in &ps.patches {
+        let sup = &p.support;
+        // Real area against the scene's exact area.
+        let exact = s.surfaces[p.surface].shape.area();
+        assert!(
+            rel(sup.real_area(), exact) < 1e-6,
+            "{}: {} vs {exact}",
+            s.surfaces[p.surface].name,
+            sup.real_area()
+        );
+        // Normals are unit, flipped on back sides, and the map is equal-area.
+        for (a, b) in [(0.3, 0.4), (0.7, 0.2)] {
+            let n = sup.normal_at(a, b);
+            assert!((n.length() - 1.0).abs() < 1e-9);
+            assert!(rel(sup.jacobian(a, b), sup.area) < 1e-12);
+        }
+    }
+    // Back sides flip the normal pointwise.
+    for w in ps.patches.windows(2) {
+        if w[0].prim == w[1].prim {
+            let (a, b) = (
+                w[0].support.normal_at(0.3, 0.6),
+                w[1].support.normal_at(0.3, 0.6),
+            );
+            assert!((a + b).length() < 1e-12);
+        }
+    }
+    // The gathering solver runs on all of them.
+    let sol = solve(&s, &cheap()).unwrap();
+    assert!(sol.energy.emitted[0] > 0.0);
+    assert!(sol.stats.cells_full > 0);
+    // Natural maps: untrimmed curved supports vary their Jacobian; trimmed are refused.
+    let nat = build_patches_with(&s, ParamKind::Natural);
+    assert!(nat.is_err());
+}
+
+#[test]
+fn natural_maps_keep_the_area() {
+    let mut s = Scene::new("natural");
+    let m = material(&mut s, "m", 0.5, 1.0);
+    add(
+        &mut s,
+        "sphere",
+        sphere(DVec3::ZERO, 1.3, None),
+        m,
+        Sidedness::OneSided,
+    );
+    let ps = build_patches_with(&s, ParamKind::Natural).unwrap();
+    let sup = &ps.patches[0].support;
+    assert!(matches!(sup.map, SupportMap::Mapped { .. }));
+    assert!(!sup.is_equal_area());
+    assert!(rel(sup.area, 4.0 * PI * 1.3 * 1.3) < 1e-6, "{}", sup.area);
+    assert!(rel(sup.jacobian(0.5, 0.5), sup.jacobian(0.5, 0.9)) > 0.1);
+    // Energy accounting integrates the Jacobian.
+    let sol = wavelux_solver::solve_prepared(
+        &wavelux_solver::Prepared::with_kind(
+            &emitter_scene(sphere(DVec3::ZERO, 1.3, None)),
+            &cheap(),
+            ParamKind::Natural,
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    let exact = 2.5 * 4.0 * PI * 1.3 * 1.3;
+    assert!(
+        rel(sol.energy.emitted[0], exact) < 1e-4,
+        "{}",
+        sol.energy.emitted[0]
+    );
+}
+
+/// Closed sphere seen from inside: `G = 1/(4πR²)` between any two points, so the
+/// transfer is exact and the white-furnace solution `B = E/(1−ρ)` must come out.
+#[test]
+fn closed_sphere_interior_is_a_furnace() {
+    let mut s = Scene::new("sphere furnace");
+    let black = material(&mut s, "black", 0.0, 0.0);
+    let wall = material(&mut s, "wall", 0.6, 1.0);
+    add(
+        &mut s,
+        "sphere",
+        sphere(DVec3::new(0.3, -0.2, 0.1), 1.7, None),
+        black,
+        Sidedness::TwoSided { back: wall },
+    );
+    let cfg = SolverConfig {
+        max_level: 1,
+        eps: 1e-9,
+        max_split_depth: 1,
+        max_iterations: 400,
+        tolerance: 1e-12,
+        ..cheap()
+    };
+    let sol = solve(&s, &cfg).unwrap();
+    let e = sol.energy;
+    let want = 1.0 / (1.0 - 0.6);
+    let inside = sol.by_surface[0][1];
+    for (a, b) in [(0.1, 0.1), (0.5, 0.5), (0.9, 0.7), (0.3, 0.99)] {
+        let got = sol.radiosity(inside, a, b)[0];
+        assert!(rel(got, want) < 1e-6, "B({a},{b}) = {got}, want {want}");
+    }
+    println!(
+        "sphere furnace: emitted {} absorbed {} escaped {:.3e}",
+        e.emitted[0], e.absorbed[0], e.escaped[0]
+    );
+    assert!(e.escaped[0].abs() < 1e-6 * e.emitted[0]);
+    assert!(rel(e.absorbed[0], e.emitted[0]) < 1e-6);
+}
+
+/// Closed cylinder (inside of a two-sided cylinder + two disks): energy balance.
+#[test]
+fn closed_cylinder_interior_conserves_energy() {
+    let mut s = Scene::new("cylinder furnace");
+    let black = material(&mut s, "black", 0.0, 0.0);
+    let wall = material(&mut s, "wall", 0.5, 1.0);
+    let (r, h) = (1.0, 1.5);
+    add(
+        &mut s,
+        "tube",
+        Shape::Patch(AnalyticPatch {
+            surface: AnalyticSurface::Cylinder {
+                placement: placement(DVec3::ZERO),
+                radius: r,
+                azimuth: (0.0, TAU),
+                height: (0.0, h),
+            },
+            trim: None,
+        }),
+        black,
+        Sidedness::TwoSided { back: wall },
+    );
+    add(
+        &mut s,
+        "bottom",
+        polygon(
+            frame(DVec3::ZERO, DVec3::X, DVec3::Y),
+            Loop::circle(DVec2::ZERO, r),
+            vec![],
+        ),
+        wall,
+        Sidedness::OneSided,
+    );
+    add(
+        &mut s,
+        "top",
+        polygon(
+            frame(DVec3::new(0.0, 0.0, h), DVec3::Y, DVec3::X),
+            Loop::circle(DVec2::ZERO, r),
+            vec![],
+        ),
+        wall,
+        Sidedness::OneSided,
+    );
+    let cfg = SolverConfig {
+        max_level: 2,
+        eps: 1e-9,
+        quad_points: 4,
+        max_split_depth: 2,
+        max_iterations: 400,
+        tolerance: 1e-12,
+        ..cheap()
+    };
+    let sol = solve(&s, &cfg).unwrap();
+    let e = sol.energy;
+    println!(
+        "cylinder furnace: emitted {} absorbed {} escaped {:.3e} unshot {:.3e}",
+        e.emitted[0], e.absorbed[0], e.escaped[0], e.unshot[0]
+    );
+    let balance = e.emitted[0] - e.absorbed[0] - e.escaped[0] - e.unshot[0];
+    assert!(balance.abs() < 1e-9 * e.emitted[0]);
+    assert!(
+        e.escaped[0].abs() < 0.02 * e.emitted[0],
+        "escaped {}",
+        e.escaped[0]
+    );
+    let want = 1.0 / (1.0 - 0.5);
+    let inside = sol.by_surface[0][1];
+    let got = sol.patch_average(inside)[0];
+    assert!(rel(got, want) < 0.02, "tube average {got} vs {want}");
+}
+
+/// A sphere lit by a square lamp on its axis: 4-fold symmetric about the axis, so with
+/// uniform refinement the cell averages repeat every quarter turn (`s + ¼`).
+#[test]
+fn sphere_lit_symmetrically_has_a_symmetric_solution() {
+    let mut s = Scene::new("lit sphere");
+    let lamp = material(&mut s, "lamp", 0.0, 1.0);
+    let ball = material(&mut s, "ball", 0.7, 0.0);
+    add(
+        &mut s,
+        "lamp",
+        Shape::parallelogram(
+            DVec3::new(-1.0, -1.0, 3.0),
+            DVec3::new(0.0, 2.0, 0.0),
+            DVec3::new(2.0, 0.0, 0.0),
+        ),
+        lamp,
+        Sidedness::OneSided,
+    );
+    add(
+        &mut s,
+        "ball",
+        sphere(DVec3::ZERO, 1.0, None),
+        ball,
+        Sidedness::OneSided,
+    );
+    let cfg = SolverConfig {
+        max_level: 2,
+        eps: 1e-12,
+        max_split_depth: 1,
+        ..cheap()
+    };
+    let sol = solve(&s, &cfg).unwrap();
+    let p = sol.by_surface[1][0];
+    let mut top: f64 = 0.0;
+    for iy in 0..8 {
+        for ix in 0..8 {
+            let (s0, t0) = ((ix as f64 + 0.5) / 8.0, (iy as f64 + 0.5) / 8.0);
+            let a = sol.radiosity(p, s0, t0)[0];
+            let b = sol.radiosity(p, (s0 + 0.25) % 1.0, t0)[0];
+            top = top.max(a);
+            assert!(
+                (a - b).abs() <= 1e-9 * a.abs().max(1e-12),
+                "({s0},{t0}): {a} vs {b}"
+            );
+        }
+    }
+    assert!(top > 0.0);
+    // The lower hemisphere sees nothing.
+    assert_eq!(sol.radiosity(p, 0.3, 0.1)[0], 0.0);
+}
+
+#[test]
+fn coverage_counts_are_reported() {
+    let scene = emitter_scene(polygon(
+        frame(DVec3::ZERO, DVec3::Y, DVec3::X),
+        Loop::polygon(&[
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(0.0, 1.0),
+        ]),
+        vec![],
+    ));
+    let ps = build_patches(&scene).unwrap();
+    let sup = &ps.patches[0].support;
+    // The MEP of a triangle is a parallelogram with half of it virtual.
+    assert!(rel(sup.real_area(), 0.5 * sup.area) < 1e-12);
+    assert_eq!(sup.coverage(0.0, 0.0, 1.0), Coverage::Partial);
+    let sol = solve(
+        &scene,
+        &SolverConfig {
+            eps: 1e-12,
+            ..cheap()
+        },
+    )
+    .unwrap();
+    assert!(sol.stats.cells_partial > 0);
+    assert!(sol.stats.cells_full > 0);
+    assert_eq!(
+        sol.stats.cells_empty + sol.stats.cells_partial + sol.stats.cells_full,
+        sol.stats.leaves
+    );
+}
