@@ -36,7 +36,7 @@ pub enum BasisKind {
     /// moments (`k = 2` is Ziegler's "MW", `k = 3` VirtualMesh's `M_3`).
     Multiwavelet(usize),
     /// Cohen–Daubechies–Vial D4 on the interval (Ziegler §3.1.3). Not tree
-    /// structured; not implemented by this solver yet.
+    /// structured: solved by [`crate::cdv`] (not a [`TreeBasis`]).
     Cdv,
 }
 

@@ -28,7 +28,9 @@ pub enum SolverError {
     #[error("invalid scene: {0}")]
     InvalidScene(String),
     /// The basis is not available for this solver (e.g. a non-tree MRA).
-    #[error("unsupported basis {0}: only tree-structured (Alpert M_k) bases are implemented")]
+    #[error(
+        "unsupported basis {0}: tree bases are Haar and M_k (k <= 4); CDV is solved by `solve` (module `cdv`), not as a tree basis"
+    )]
     UnsupportedBasis(String),
     /// A dependency (quadrature, MRA, geometry) rejected an internal request.
     #[error("internal {what} error: {message}")]

@@ -400,11 +400,23 @@ pub struct Hierarchy {
 impl Hierarchy {
     /// Compiles links into the hierarchy of `n_patches` patches.
     pub fn compile(n: usize, n_patches: usize, links: &[LinkRec]) -> Self {
+        Self::compile_with_nodes(n, n_patches, &[], links)
+    }
+
+    /// [`Hierarchy::compile`] with extra nodes that must exist (their ancestors and
+    /// siblings are added too); e.g. every cell of a level gives a complete quadtree.
+    pub fn compile_with_nodes(
+        n: usize,
+        n_patches: usize,
+        nodes: &[NodeKey],
+        links: &[LinkRec],
+    ) -> Self {
         let mut set: HashSet<NodeKey> = HashSet::new();
         for p in 0..n_patches {
             set.insert(NodeKey::root(p));
         }
         let mut stack: Vec<NodeKey> = links.iter().flat_map(|l| [l.r, l.e]).collect();
+        stack.extend_from_slice(nodes);
         while let Some(k) = stack.pop() {
             if !set.insert(k) {
                 continue;

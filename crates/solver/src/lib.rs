@@ -2,8 +2,8 @@
 //!
 //! The radiosity equation `B(x) = E(x) + ρ(x) ∫ G(x,y) V(x,y) B(y) dA_y` (Ziegler
 //! §2.1; `E` is the emitted exitance of `wavelux-scene`) is discretized with
-//! orthonormal tree bases (Haar, Alpert multiwavelets `M_k`) on the unit-square
-//! support of every surface side, and compressed by top-down refinement of links
+//! orthonormal tree bases (Haar, Alpert multiwavelets `M_k`) or the non-tree CDV-D4
+//! basis ([`cdv`]) on the unit-square support of every surface side, and compressed by top-down refinement of links
 //! between element pairs (Hanrahan et al. 1991, Gortler et al. 1993, Ziegler §2.2.3)
 //! driven by an oracle (Ziegler §2.4.2, §3.3.2). The hierarchical system with
 //! push/pull is the non-standard wavelet representation (see [`basis`] for the
@@ -16,6 +16,8 @@
 //! - [`transfer`]: kernel, transfer blocks (regular Gauss, singular Sauter–Schwab
 //!   rules for touching elements, visibility in quadrature or fractional), oracle;
 //! - [`hierarchy`]: nodes, links, refinement, the compiled level-ordered hierarchy;
+//! - [`cdv`]: Cohen–Daubechies–Vial wavelets (overlapping supports): vertex links,
+//!   deduplicated refinement, push/pull by the CDV two-scale rows, its own system;
 //! - [`system`]: matrix-free `K`, `Kᵀ` and Gauss–Seidel sweeps (rayon, deterministic);
 //! - [`solution`]: [`Solution`], [`Energy`], [`Statistics`];
 //! - [`standard`]: the standard decomposition of the same links (tree wavelet basis,
@@ -25,6 +27,7 @@
 //! Entry point: [`solve`] with a [`SolverConfig`].
 
 pub mod basis;
+pub mod cdv;
 pub mod error;
 pub mod hierarchy;
 pub mod mask;
@@ -41,8 +44,8 @@ use wavelux_geometry::Accel;
 use wavelux_geometry::primitive::{ComplexPolygon, Parallelogram, PlaneFrame, Primitive, Triangle};
 use wavelux_geometry::{Edge2, TrimLoop, TrimRegion};
 use wavelux_linear::{
-    Convergence, IdentityMinus, IterationRecord, SolverOptions, StopReason, Work, cgnr, gmres,
-    picard,
+    Convergence, IdentityMinus, IterationRecord, Operator, SolverOptions, StopReason, Work, cgnr,
+    gmres, picard,
 };
 use wavelux_scene::Scene;
 
@@ -95,7 +98,8 @@ pub struct SolverConfig {
     /// Refinement threshold `ε` (dimensionless for the kernel oracle, W/m² for the
     /// brightness oracle). `> 0`, finite.
     pub eps: f64,
-    /// Deepest element level (`≤ 20`).
+    /// Deepest element level (`≤ 20`; for CDV the finest dyadic level, `≥ 2`, so the
+    /// patch has at most `4^max_level` functions as with Haar).
     pub max_level: u8,
     /// Smallest element area (scene units², `≥ 0`).
     pub min_area: f64,
@@ -205,6 +209,22 @@ impl SolverConfig {
         if let LinearMethod::Gmres { restart: 0 } = self.linear_method {
             return Err(bad("linear_method.restart", 0, "must be >= 1"));
         }
+        if self.basis == BasisKind::Cdv {
+            if self.max_level < cdv::CDV_MIN_LEVEL {
+                return Err(bad(
+                    "max_level",
+                    self.max_level,
+                    "CDV needs max_level >= 2 (4 functions per axis on its coarsest level)",
+                ));
+            }
+            if self.split != SplitPolicy::Both {
+                return Err(bad(
+                    "split",
+                    format!("{:?}", self.split),
+                    "CDV refines vertex pairs of equal level (non-standard form) only",
+                ));
+            }
+        }
         if let Some(m) = self.multigrid {
             if m.stages == 0 {
                 return Err(bad("multigrid.stages", 0, "must be >= 1"));
@@ -237,7 +257,8 @@ pub struct Prepared {
     pub accel: Accel,
     /// `(centre, size)` of the normalised frame: the accelerator holds `(p − c)/s`.
     pub frame: (DVec3, f64),
-    /// Basis.
+    /// Tree basis; for [`BasisKind::Cdv`] the `M2` basis whose cell-pair transfer
+    /// blocks the CDV coefficients are assembled from (see [`cdv`]).
     pub basis: TreeBasis,
     /// Configuration.
     pub config: SolverConfig,
@@ -383,7 +404,10 @@ impl Prepared {
             what: "geometry",
             message: e.to_string(),
         })?;
-        let basis = TreeBasis::new(config.basis)?;
+        let basis = match config.basis {
+            BasisKind::Cdv => TreeBasis::new(BasisKind::Multiwavelet(cdv::CDV_QUADRATURE_P))?,
+            kind => TreeBasis::new(kind)?,
+        };
         Ok(Self {
             patches,
             accel,
@@ -392,6 +416,11 @@ impl Prepared {
             config: *config,
             setup_time: t0.elapsed(),
         })
+    }
+
+    /// Wall time of [`Prepared::new`].
+    pub fn setup_time(&self) -> Duration {
+        self.setup_time
     }
 
     /// A transfer context over these patches.
@@ -443,7 +472,32 @@ pub fn solve_channel(
     reference: Option<Vec<f64>>,
 ) -> Result<(Vec<f64>, Convergence), SolverError> {
     let b = system.emission(ch);
-    let x0 = x0.unwrap_or_else(|| b.clone());
+    linear_solve(
+        &system.channel(ch),
+        &b,
+        method,
+        max_iterations,
+        tolerance,
+        x0,
+        reference,
+        &|b: &[f64], x: &mut [f64]| system.gauss_seidel_sweep(ch, b, x),
+    )
+}
+
+/// Solves `x = b + K x` with a linear method (shared by the tree and CDV systems);
+/// `sweep(b, x)` is one Gauss–Seidel sweep of the system.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn linear_solve<K: Operator>(
+    k: &K,
+    b: &[f64],
+    method: LinearMethod,
+    max_iterations: usize,
+    tolerance: f64,
+    x0: Option<Vec<f64>>,
+    reference: Option<Vec<f64>>,
+    sweep: &dyn Fn(&[f64], &mut [f64]),
+) -> Result<(Vec<f64>, Convergence), SolverError> {
+    let x0 = x0.unwrap_or_else(|| b.to_vec());
     let mut opts = SolverOptions::default()
         .with_max_iterations(max_iterations)
         .with_tolerance(tolerance)
@@ -454,17 +508,16 @@ pub fn solve_channel(
     if let LinearMethod::Gmres { restart } = method {
         opts = opts.with_restart(restart);
     }
-    let k = system.channel(ch);
     let lin = |e: wavelux_linear::LinearError| SolverError::Linear(e.to_string());
     let solve = match method {
-        LinearMethod::Picard => picard(&k, &b, &opts).map_err(lin)?,
-        LinearMethod::Gmres { .. } => gmres(&IdentityMinus::new(k), &b, &opts).map_err(lin)?,
-        LinearMethod::Cgnr => cgnr(&IdentityMinus::new(k), &b, &opts).map_err(lin)?,
+        LinearMethod::Picard => picard(k, b, &opts).map_err(lin)?,
+        LinearMethod::Gmres { .. } => gmres(&IdentityMinus::new(k), b, &opts).map_err(lin)?,
+        LinearMethod::Cgnr => cgnr(&IdentityMinus::new(k), b, &opts).map_err(lin)?,
         LinearMethod::GaussSeidel => {
             return Ok(gauss_seidel(
-                system,
-                ch,
-                &b,
+                k,
+                sweep,
+                b,
                 x0,
                 max_iterations,
                 tolerance,
@@ -479,16 +532,16 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
-fn fixed_point_residual(system: &System, ch: usize, b: &[f64], x: &[f64]) -> f64 {
+fn fixed_point_residual<K: Operator>(k: &K, b: &[f64], x: &[f64]) -> f64 {
     let mut kx = vec![0.0; x.len()];
-    system.apply_k(ch, x, &mut kx);
+    k.apply(x, &mut kx);
     let r: Vec<f64> = (0..x.len()).map(|i| b[i] + kx[i] - x[i]).collect();
     norm(&r)
 }
 
-fn gauss_seidel(
-    system: &System,
-    ch: usize,
+fn gauss_seidel<K: Operator>(
+    k: &K,
+    sweep: &dyn Fn(&[f64], &mut [f64]),
     b: &[f64],
     mut x: Vec<f64>,
     max_iterations: usize,
@@ -507,7 +560,7 @@ fn gauss_seidel(
     };
     let mut records = Vec::new();
     let mut work = Work::default();
-    let mut res = fixed_point_residual(system, ch, b, &x);
+    let mut res = fixed_point_residual(k, b, &x);
     records.push(IterationRecord {
         iteration: 0,
         residual_norm: res,
@@ -522,9 +575,9 @@ fn gauss_seidel(
             reason = StopReason::Converged;
             break;
         }
-        system.gauss_seidel_sweep(ch, b, &mut x);
+        sweep(b, &mut x);
         work.applications += 1;
-        res = fixed_point_residual(system, ch, b, &x);
+        res = fixed_point_residual(k, b, &x);
         records.push(IterationRecord {
             iteration: it,
             residual_norm: res,
@@ -605,6 +658,9 @@ pub fn solve(scene: &Scene, config: &SolverConfig) -> Result<Solution, SolverErr
 /// # Errors
 /// As [`solve`].
 pub fn solve_prepared(prep: &Prepared) -> Result<Solution, SolverError> {
+    if prep.config.basis == BasisKind::Cdv {
+        return cdv::solve(prep);
+    }
     let cfg = &prep.config;
     let ctx = prep.transfer()?;
     let stages = cfg.multigrid.map_or(1, |m| m.stages);

@@ -1,11 +1,13 @@
 //! The result of a solve: radiosity at `(patch, s, t)`, area averages per patch and
 //! surface, energy accounting and statistics.
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use wavelux_linear::Convergence;
 
 use crate::basis::TreeBasis;
+use crate::cdv::CdvField;
 use crate::hierarchy::NodeKey;
 use crate::support::{Patch, Side};
 use crate::system::System;
@@ -65,6 +67,11 @@ pub struct Statistics {
 }
 
 /// A radiosity solution.
+///
+/// For the CDV basis (not tree structured, see [`crate::cdv`]) `system`, `node_b` and
+/// `leaf_h` hold a documented conversion: a complete Haar quadtree whose leaves are the
+/// exact cell averages of the CDV expansion on its finest level, with no links;
+/// [`Solution::radiosity`] evaluates the CDV expansion itself ([`Solution::cdv_field`]).
 #[derive(Debug, Clone)]
 pub struct Solution {
     /// Patches (supports with materials) the solution lives on.
@@ -84,6 +91,7 @@ pub struct Solution {
     pub stats: Statistics,
     /// Convergence records of the (last stage's) channel solves.
     pub convergence: Vec<Convergence>,
+    cdv: Option<Arc<CdvField>>,
 }
 
 impl Solution {
@@ -146,10 +154,44 @@ impl Solution {
             energy,
             stats,
             convergence,
+            cdv: None,
         }
     }
 
-    /// The basis.
+    /// A CDV solution from its parts (see the type docs and [`crate::cdv`]).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn from_cdv(
+        patches: Vec<Patch>,
+        by_surface: Vec<Vec<usize>>,
+        system: System,
+        basis: TreeBasis,
+        node_b: [Vec<f64>; 3],
+        leaf_h: [Vec<f64>; 3],
+        energy: Energy,
+        stats: Statistics,
+        convergence: Vec<Convergence>,
+        field: Arc<CdvField>,
+    ) -> Self {
+        Self {
+            patches,
+            by_surface,
+            system,
+            basis,
+            node_b,
+            leaf_h,
+            energy,
+            stats,
+            convergence,
+            cdv: Some(field),
+        }
+    }
+
+    /// The CDV expansion, for solutions computed with [`crate::BasisKind::Cdv`].
+    pub fn cdv_field(&self) -> Option<&CdvField> {
+        self.cdv.as_deref()
+    }
+
+    /// The tree basis of `system` (Haar for CDV solutions, see the type docs).
     pub fn basis(&self) -> &TreeBasis {
         &self.basis
     }
@@ -159,6 +201,9 @@ impl Solution {
     /// # Panics
     /// If `patch` is out of range.
     pub fn radiosity(&self, patch: usize, s: f64, t: f64) -> [f64; 3] {
+        if let Some(f) = &self.cdv {
+            return f.radiosity(patch, s, t);
+        }
         let h = &self.system.h;
         let n = h.n;
         let leaf = h.leaf_at(patch, s, t) as usize;

@@ -296,7 +296,7 @@ fn rejects_bad_input() {
         ));
     }
     let c = SolverConfig {
-        basis: BasisKind::Cdv,
+        basis: BasisKind::Multiwavelet(7),
         ..cfg()
     };
     assert!(matches!(

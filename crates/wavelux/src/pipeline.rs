@@ -73,10 +73,7 @@ pub fn solver_config(a: &SolveArgs) -> anyhow::Result<SolverConfig> {
         BasisArg::Haar => BasisKind::Haar,
         BasisArg::M2 => BasisKind::Multiwavelet(2),
         BasisArg::M3 => BasisKind::Multiwavelet(3),
-        BasisArg::Cdv => bail!(
-            "--basis cdv is not available yet: the wavelet solver implements tree-structured \
-             (Haar, Alpert M_k) bases only"
-        ),
+        BasisArg::Cdv => BasisKind::Cdv,
     };
     let linear_method = match a.solver {
         SolverArg::Picard | SolverArg::Jacobi => LinearMethod::Picard,

@@ -229,7 +229,11 @@ fn unavailable_and_bad_options_fail_clearly() -> Result<()> {
     let dir = tempfile::tempdir()?;
     let d = dir.path();
     fails(&["solve", "--method", "shoot"], d, "not available yet");
-    fails(&["solve", "--basis", "cdv"], d, "not available yet");
+    fails(
+        &["solve", "--basis", "cdv", "--max-level", "1"],
+        d,
+        "max_level",
+    );
     fails(&["solve", "--solver", "southwell"], d, "not available yet");
     fails(&["solve", "--eps=-1"], d, "eps");
     fails(&["solve", "--quad", "40"], d, "quad_points");
