@@ -224,6 +224,13 @@ impl SolverConfig {
                     "CDV refines vertex pairs of equal level (non-standard form) only",
                 ));
             }
+            if self.decomposition != Decomposition::NonStandard {
+                return Err(bad(
+                    "decomposition",
+                    format!("{:?}", self.decomposition),
+                    "CDV is solved in the non-standard form only",
+                ));
+            }
         }
         if let Some(m) = self.multigrid {
             if m.stages == 0 {

@@ -5,7 +5,9 @@
 use wavelux_geometry::formfactor::point_to_polygon;
 use wavelux_scene::builtin::{ZIEGLER_EMISSION, ZIEGLER_RHO0, unoccluded, white_furnace};
 use wavelux_scene::{Scene, Shape};
-use wavelux_solver::{BasisKind, LinearMethod, SolverConfig, SolverError, SplitPolicy, solve};
+use wavelux_solver::{
+    BasisKind, Decomposition, LinearMethod, SolverConfig, SolverError, SplitPolicy, solve,
+};
 
 fn cdv(eps: f64, max_level: u8) -> SolverConfig {
     SolverConfig {
@@ -195,6 +197,10 @@ fn rejects_invalid_cdv_config() {
         cdv(1e-3, 1),
         SolverConfig {
             split: SplitPolicy::Larger,
+            ..cdv(1e-3, 3)
+        },
+        SolverConfig {
+            decomposition: Decomposition::Standard,
             ..cdv(1e-3, 3)
         },
     ] {
