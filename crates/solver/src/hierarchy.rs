@@ -267,7 +267,7 @@ pub fn refine_link(
 
 /// Refines every root pair `(receiver, emitter)` of patches that can interact:
 /// receivers that reflect, emitters that emit or reflect, on different pieces — or
-/// the same patch when its support is curved (a concave curved surface sees itself,
+/// the same patch when its curved support sees itself ([`crate::Support::sees_itself`],
 /// VirtualMesh §5.3; planar patches never self-link). The two sides of one curved
 /// piece are not linked (light between them has to cross the sheet).
 pub fn refine_all(
@@ -283,7 +283,7 @@ pub fn refine_all(
                 .filter(move |&j| {
                     let (a, b) = (&ctx.patches[i], &ctx.patches[j]);
                     let pair = if a.prim == b.prim {
-                        i == j && !a.support.is_planar()
+                        i == j && a.support.sees_itself()
                     } else {
                         true
                     };

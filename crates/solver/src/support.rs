@@ -331,6 +331,30 @@ impl Support {
         !matches!(self.map, SupportMap::Mapped { .. })
     }
 
+    /// Whether this side can send light to itself (VirtualMesh §5.3, self-shooting
+    /// surfaces): never for planar supports; for curved ones, whether some pair of a
+    /// 12×12 grid of real sample points faces each other (`n_x·(y−x) > 0` and
+    /// `n_y·(x−y) > 0`). A concave island smaller than the grid spacing can be missed.
+    pub fn sees_itself(&self) -> bool {
+        if self.is_planar() {
+            return false;
+        }
+        const K: usize = 12;
+        let pts: Vec<(DVec3, DVec3)> = (0..K * K)
+            .map(|i| ((i % K) as f64 + 0.5, (i / K) as f64 + 0.5))
+            .map(|(a, b)| (a / K as f64, b / K as f64))
+            .filter(|&(a, b)| self.is_real(a, b))
+            .map(|(a, b)| (self.point(a, b), self.normal_at(a, b)))
+            .collect();
+        let (_, rad) = self.bounding_sphere(0.0, 0.0, 1.0);
+        let tol = 1e-9 * rad;
+        pts.iter().enumerate().any(|(i, (x, nx))| {
+            pts[i + 1..]
+                .iter()
+                .any(|(y, ny)| nx.dot(*y - *x) > tol && ny.dot(*x - *y) > tol)
+        })
+    }
+
     /// Whether `(s, t)` is a real point of the surface (always for unmasked supports).
     #[inline]
     pub fn is_real(&self, s: f64, t: f64) -> bool {

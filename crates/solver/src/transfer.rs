@@ -132,6 +132,8 @@ pub struct TransferCtx<'a> {
     /// Edge rules `[re * 8 + ee * 2 + flip]` and vertex rules `[rc * 4 + ec]`.
     edge_rules: Vec<RuleNd>,
     vertex_rules: Vec<RuleNd>,
+    /// Identical-square rule (self pairs of curved patches).
+    identical_rule: RuleNd,
     /// Kernel evaluations so far.
     pub kernel_evals: AtomicU64,
     /// Shadow rays so far.
@@ -234,7 +236,10 @@ impl<'a> TransferCtx<'a> {
                     .push(square_pair_rule(pair, opts.singular_order).map_err(dep("quadrature"))?);
             }
         }
+        let identical_rule = square_pair_rule(SquarePair::Identical, opts.singular_order)
+            .map_err(dep("quadrature"))?;
         Ok(Self {
+            identical_rule,
             patches,
             accel,
             frame,
@@ -355,14 +360,33 @@ impl<'a> TransferCtx<'a> {
         let (cr, rad_r) = pr.support.bounding_sphere(rs.s0, rs.t0, rs.h);
         let (ce, rad_e) = pe.support.bounding_sphere(es.s0, es.t0, es.h);
         let dist = (cr - ce).length();
+        let emitter_cov = if pe.support.mask.is_some() {
+            pe.support.coverage(es.s0, es.t0, es.h)
+        } else {
+            Coverage::Full
+        };
         if dist >= self.near_field * (rad_r + rad_e) {
+            if emitter_cov == Coverage::Partial && depth < self.max_split_depth {
+                // A partial emitter: split it (only it) so that the cell-constant real
+                // fraction of VirtualMesh Fig. 7 is applied on cells a quarter the
+                // size; empty children are dropped by `facing`.
+                for b in es.split() {
+                    if self.facing(rs, &b) {
+                        self.accumulate(rn, en, rs, &b, depth + 1, with_vis, out, evals, rays);
+                    }
+                }
+                return;
+            }
             self.regular(rn, en, rs, es, with_vis, out, evals, rays);
             return;
         }
-        let emitter_full =
-            pe.support.mask.is_none() || pe.support.coverage(es.s0, es.t0, es.h) == Coverage::Full;
-        let rule = if pr.support.is_affine() && pe.support.is_affine() && emitter_full {
+        let emitter_full = emitter_cov == Coverage::Full;
+        let rule = if !emitter_full {
+            None
+        } else if pr.support.is_affine() && pe.support.is_affine() {
             self.singular_rule(pr, rs, pe, es, rad_r.max(rad_e))
+        } else if rs.patch == es.patch && !pr.support.is_planar() {
+            self.param_rule(rs, es)
         } else {
             None
         };
@@ -370,15 +394,7 @@ impl<'a> TransferCtx<'a> {
             self.apply_rule(rule, rn, en, rs, es, with_vis, out, evals, rays);
             return;
         }
-        // Pairs within one curved patch have a bounded kernel (cos·cos/(πr²) tends to
-        // a curvature term on a smooth surface): one split resolves the diagonal,
-        // identical sub-squares use the offset (q+1)-point emitter rule.
-        let limit = if rs.patch == es.patch && !pr.support.is_planar() {
-            self.max_split_depth.min(1)
-        } else {
-            self.max_split_depth
-        };
-        if depth >= limit {
+        if depth >= self.max_split_depth {
             self.near_limit(rn, en, rs, es, with_vis, out, evals, rays);
             return;
         }
@@ -473,6 +489,30 @@ impl<'a> TransferCtx<'a> {
         }
     }
 
+    /// The rule for touching sub-squares of one curved patch, found in parameter
+    /// space: the Sauter–Schwab/Duffy rules make the bounded, direction-dependent
+    /// kernel of a smooth surface with itself (`cos·cos/(πr²)` tends to a curvature
+    /// term on the diagonal) smooth, for identical squares and for same-size squares
+    /// sharing an edge or a corner. Pairs across a periodic seam are not detected
+    /// (they are merely near: bounded kernel, split and Gauss).
+    fn param_rule(&self, rs: &Region, es: &Region) -> Option<&RuleNd> {
+        if rs.h != es.h {
+            return None;
+        }
+        if rs.s0 == es.s0 && rs.t0 == es.t0 {
+            return Some(&self.identical_rule);
+        }
+        let c = |r: &Region| {
+            [
+                DVec3::new(r.s0, r.t0, 0.0),
+                DVec3::new(r.s0 + r.h, r.t0, 0.0),
+                DVec3::new(r.s0 + r.h, r.t0 + r.h, 0.0),
+                DVec3::new(r.s0, r.t0 + r.h, 0.0),
+            ]
+        };
+        self.rule_for_corners(&c(rs), &c(es), 1e-12 * rs.h, true)
+    }
+
     /// The singular rule for touching affine sub-squares, if they share exactly a
     /// full edge or exactly one corner.
     fn singular_rule(
@@ -485,7 +525,24 @@ impl<'a> TransferCtx<'a> {
     ) -> Option<&RuleNd> {
         let rc = pr.support.corners(rs.s0, rs.t0, rs.h);
         let ec = pe.support.corners(es.s0, es.t0, es.h);
-        let tol = 1e-9 * size;
+        // Same-size squares only for a shared corner (otherwise a partial edge may be
+        // shared).
+        let (_, a) = pr.support.bounding_sphere(rs.s0, rs.t0, rs.h);
+        let (_, b) = pe.support.bounding_sphere(es.s0, es.t0, es.h);
+        let same = (a - b).abs() <= 1e-6 * a.max(b);
+        self.rule_for_corners(&rc, &ec, 1e-9 * size, same)
+    }
+
+    /// The edge or vertex rule for squares whose corners `rc`, `ec` (order `(0,0),
+    /// (1,0), (1,1), (0,1)`) coincide (within `tol`) along one full edge, or at one
+    /// corner when `same_size`.
+    fn rule_for_corners(
+        &self,
+        rc: &[DVec3; 4],
+        ec: &[DVec3; 4],
+        tol: f64,
+        same_size: bool,
+    ) -> Option<&RuleNd> {
         let mut matches = Vec::new();
         for (i, p) in rc.iter().enumerate() {
             for (j, q) in ec.iter().enumerate() {
@@ -495,15 +552,7 @@ impl<'a> TransferCtx<'a> {
             }
         }
         match matches.as_slice() {
-            [(i, j)] => {
-                // Same-size squares only (otherwise a partial edge may be shared).
-                let (_, a) = pr.support.bounding_sphere(rs.s0, rs.t0, rs.h);
-                let (_, b) = pe.support.bounding_sphere(es.s0, es.t0, es.h);
-                if (a - b).abs() > 1e-6 * a.max(b) {
-                    return None;
-                }
-                Some(&self.vertex_rules[i * 4 + j])
-            }
+            [(i, j)] => same_size.then(|| &self.vertex_rules[i * 4 + j]),
             [(i0, j0), (i1, j1)] => {
                 // Order the receiver corners as one of EDGES.
                 let (r0, r1, e0, e1) = if EDGES.contains(&(*i0, *i1)) {
@@ -541,7 +590,7 @@ impl<'a> TransferCtx<'a> {
         let n = self.basis.n();
         let pr = &self.patches[rs.patch];
         let pe = &self.patches[es.patch];
-        let jac = pr.support.area * rs.h * rs.h * pe.support.area * es.h * es.h;
+        let ar = pr.support.area * rs.h * rs.h;
         let mut br = [0.0; 16];
         let mut be = [0.0; 16];
         for (p, w) in rule.iter() {
@@ -576,7 +625,7 @@ impl<'a> TransferCtx<'a> {
                 .eval((s - rn.s0) / rn.h, (t - rn.t0) / rn.h, &mut br[..n]);
             self.basis
                 .eval((u - en.s0) / en.h, (v - en.t0) / en.h, &mut be[..n]);
-            let f = w * jac * g;
+            let f = w * ar * pe.support.jacobian(u, v) * es.h * es.h * g;
             for a in 0..n {
                 let fa = f * br[a];
                 for b in 0..n {
