@@ -156,5 +156,57 @@ fn ray_efficiency(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, unoccluded_solves, cornell_solves, ray_efficiency);
+/// Linkless shooting (VirtualMesh §5) against gathering over links on "Unoccluded":
+/// same basis and deepest level; the shooter runs to convergence. Elements, bytes and
+/// kernel evaluations are printed once.
+fn shoot_vs_gather(c: &mut Criterion) {
+    use wavelux::solver::shoot::{ShootConfig, shoot};
+    let scene = unoccluded();
+    let gather = SolverConfig {
+        basis: BasisKind::Multiwavelet(2),
+        eps: 1e-4,
+        max_level: 4,
+        ..SolverConfig::default()
+    };
+    let shooting = ShootConfig {
+        basis: BasisKind::Multiwavelet(2),
+        eps: 2e-3,
+        max_level: 4,
+        convergence: 1.0,
+        ..ShootConfig::default()
+    };
+    if let (Ok(a), Ok(b)) = (solve(&scene, &gather), shoot(&scene, &shooting)) {
+        println!(
+            "gather: L1 error {:.3e}, elements {}, links {}, bytes {}, kernel evals {}; \
+shoot: L1 error {:.3e}, elements {}, shots {}, bytes {}, kernel evals {}",
+            unoccluded_error(&a, &scene),
+            a.stats.elements,
+            a.stats.links,
+            a.stats.bytes,
+            a.stats.kernel_evals,
+            unoccluded_error(&b, &scene),
+            b.stats.elements,
+            b.stats.shots,
+            b.stats.bytes,
+            b.stats.kernel_evals
+        );
+    }
+    let mut g = c.benchmark_group("solver/shoot-vs-gather");
+    g.sample_size(10);
+    g.bench_function("gather M2 level 4", |b| {
+        b.iter(|| black_box(solve(&scene, &gather)))
+    });
+    g.bench_function("shoot M2 level 4", |b| {
+        b.iter(|| black_box(shoot(&scene, &shooting)))
+    });
+    g.finish();
+}
+
+criterion_group!(
+    benches,
+    unoccluded_solves,
+    cornell_solves,
+    ray_efficiency,
+    shoot_vs_gather
+);
 criterion_main!(benches);

@@ -22,15 +22,19 @@
 //! - [`solution`]: [`Solution`], [`Energy`], [`Statistics`];
 //! - [`standard`]: the standard decomposition of the same links (tree wavelet basis,
 //!   one assembled sparse matrix; Ziegler §2.2.3, Glossy §3.5), chosen by
-//!   [`SolverConfig::decomposition`].
+//!   [`SolverConfig::decomposition`];
+//! - [`shoot`]: the Virtual Mesh's linkless hierarchical shooting solver (VirtualMesh
+//!   §5, Algorithm 1) with its own element trees, producing the same [`Solution`].
 //!
-//! Entry point: [`solve`] with a [`SolverConfig`].
+//! Entry points: [`solve`] with a [`SolverConfig`] (gathering over links) and
+//! [`shoot::shoot`] with a [`shoot::ShootConfig`] (linkless shooting).
 
 pub mod basis;
 pub mod cdv;
 pub mod error;
 pub mod hierarchy;
 pub mod mask;
+pub mod shoot;
 pub mod solution;
 pub mod standard;
 pub mod support;

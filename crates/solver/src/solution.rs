@@ -64,6 +64,17 @@ pub struct Statistics {
     pub cells_partial: usize,
     /// Leaves whose points are all real (every leaf of an unmasked support).
     pub cells_full: usize,
+    /// Shots of the linkless shooting solver ([`crate::shoot`]; 0 for gathering).
+    pub shots: usize,
+    /// Input primitives (support pieces: a surface, a mesh element, a rectangle of a
+    /// decomposed polygon; both sides of a two-sided piece count once) that shot at
+    /// least once — VirtualMesh Table 1's "# shooting surfaces", whose unit is the
+    /// input primitive. 0 for gathering.
+    pub shooting_surfaces: usize,
+    /// Convergence rate `(E_i − E_r)/E_i` after each shot (VirtualMesh §6: `E_i` the
+    /// initial emitted power, `E_r` the power left to propagate; RGB summed). Empty for
+    /// gathering.
+    pub shot_convergence: Vec<f64>,
 }
 
 /// A radiosity solution.
@@ -140,6 +151,36 @@ impl Solution {
             energy.escaped[ch] = sum_b - sum_h;
             energy.unshot[ch] = unshot;
         }
+        Self::from_parts(
+            patches,
+            by_surface,
+            system,
+            basis,
+            node_b,
+            leaf_h,
+            energy,
+            stats,
+            convergence,
+        )
+    }
+
+    /// Assembles a solution whose node radiosity coefficients (every node, pulled),
+    /// leaf irradiance and energy were computed by the caller: the linkless shooting
+    /// solver ([`crate::shoot`]) passes a `system` with zero links, so neither
+    /// irradiance nor energy can be recomputed from it. Adds the vectors' bytes to
+    /// `stats.bytes`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn from_parts(
+        patches: Vec<Patch>,
+        by_surface: Vec<Vec<usize>>,
+        system: System,
+        basis: TreeBasis,
+        node_b: [Vec<f64>; 3],
+        leaf_h: [Vec<f64>; 3],
+        energy: Energy,
+        stats: Statistics,
+        convergence: Vec<Convergence>,
+    ) -> Self {
         let mut stats = stats;
         stats.bytes += (node_b.iter().map(|v| v.capacity()).sum::<usize>()
             + leaf_h.iter().map(|v| v.capacity()).sum::<usize>())
