@@ -90,6 +90,35 @@ fn real_integral(
     area
 }
 
+/// Real area, real moments `∫_{cell ∩ real} φ_a dA` (`φ_a = ψ_a/√a`, `a` the cell's
+/// nominal area `area·h²`) and coverage of a cell of a support (closed form for full
+/// cells of equal-area maps, else [`real_integral`]). Shared by [`System::new`] and the
+/// shooting solver's element trees.
+pub(crate) fn cell_real_moments(
+    sup: &Support,
+    basis: &TreeBasis,
+    r: &Region,
+    a: f64,
+) -> (f64, Vec<f64>, Coverage) {
+    let n = basis.n();
+    let cov = sup.coverage(r.s0, r.t0, r.h);
+    match cov {
+        Coverage::Empty => (0.0, vec![0.0; n], cov),
+        Coverage::Full if sup.is_equal_area() => (
+            a,
+            basis.integrals().iter().map(|v| v * a.sqrt()).collect(),
+            cov,
+        ),
+        _ => {
+            let mut m = vec![0.0; n];
+            let mut buf = vec![0.0; n];
+            let area = real_integral(sup, basis, r, r, 0, &mut m, &mut buf);
+            m.iter_mut().for_each(|v| *v /= a.sqrt());
+            (area, m, cov)
+        }
+    }
+}
+
 /// The assembled system: hierarchy, links, per-leaf reflectance and emission.
 #[derive(Debug, Clone)]
 pub struct System {
@@ -135,29 +164,13 @@ impl System {
             .collect();
         let node_patch: Vec<u32> = h.keys.iter().map(|k| k.patch).collect();
         let n = h.n;
-        let ints = basis.integrals().to_vec();
         let per_leaf: Vec<(f64, Vec<f64>, Coverage)> = h
             .leaves
             .par_iter()
             .map(|&i| {
                 let k = h.keys[i as usize];
                 let sup = &patches[k.patch as usize].support;
-                let r = k.region();
-                let a = node_area[i as usize];
-                let cov = sup.coverage(r.s0, r.t0, r.h);
-                match cov {
-                    Coverage::Empty => (0.0, vec![0.0; n], cov),
-                    Coverage::Full if sup.is_equal_area() => {
-                        (a, ints.iter().map(|v| v * a.sqrt()).collect(), cov)
-                    }
-                    _ => {
-                        let mut m = vec![0.0; n];
-                        let mut buf = vec![0.0; n];
-                        let area = real_integral(sup, basis, &r, &r, 0, &mut m, &mut buf);
-                        m.iter_mut().for_each(|v| *v /= a.sqrt());
-                        (area, m, cov)
-                    }
-                }
+                cell_real_moments(sup, basis, &k.region(), node_area[i as usize])
             })
             .collect();
         let mut coverage_counts = [0usize; 3];

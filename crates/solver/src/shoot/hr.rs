@@ -22,6 +22,10 @@
 //! 3. at the deepest level (or below `min_area`) the node's own transfer is deposited
 //!    (pulled from the parent's control cells when those were the node itself).
 //!
+//! Receiver cells without real points (virtual supports, VirtualMesh §5.4 "empty
+//! meshes") neither receive nor count in the oracle; emitter cells without real points
+//! never face anything ([`TransferCtx::facing`]), so they never shoot.
+//!
 //! Recursion over children runs in parallel (rayon) and collects deposits in a fixed
 //! order, so results do not depend on the thread count.
 
@@ -30,6 +34,7 @@ use rayon::prelude::*;
 use super::tree::{NONE, Shooter};
 use super::twoscale::{TwoScale, pull_into, push_into};
 use crate::hierarchy::NodeKey;
+use crate::mask::Coverage;
 use crate::transfer::{Region, TransferCtx};
 
 /// Refinement parameters of a shot.
@@ -139,6 +144,11 @@ impl Transfer<'_> {
         let (rr, er) = (r.region(), ek.region());
         let src = &self.shooter.db[e * 3 * n..][..3 * n];
         if self.shooter.delta[e] == 0.0 && src.iter().all(|&v| v == 0.0) {
+            return;
+        }
+        let rsup = &self.ctx.patches[r.patch as usize].support;
+        // Cells without real points never receive (VirtualMesh §5.4: empty meshes).
+        if rsup.mask.is_some() && rsup.coverage(rr.s0, rr.t0, rr.h) == Coverage::Empty {
             return;
         }
         if !self.ctx.facing(&rr, &er) {
@@ -251,7 +261,12 @@ impl Transfer<'_> {
             pushed = next;
         }
         let mut err2 = [0.0f64; 3];
-        for (p, f) in pushed.iter().zip(&levels[d as usize]) {
+        for ((p, f), c) in pushed.iter().zip(&levels[d as usize]).zip(&cells) {
+            // Only cells with real points matter.
+            let cr = c.region();
+            if rsup.mask.is_some() && rsup.coverage(cr.s0, cr.t0, cr.h) == Coverage::Empty {
+                continue;
+            }
             for ch in 0..3 {
                 err2[ch] += (0..n)
                     .map(|a| (p[ch * n + a] - f[ch * n + a]).powi(2))

@@ -56,10 +56,9 @@ use crate::basis::BasisKind;
 use crate::error::SolverError;
 use crate::hierarchy::{Hierarchy, NodeKey, Oracle, SplitPolicy};
 use crate::solution::{Energy, Solution, Statistics};
-use crate::support::{Support, SupportMap};
 use crate::system::System;
 use crate::transfer::Visibility;
-use crate::{LinearMethod, Prepared, SolverConfig};
+use crate::{LinearMethod, ParamKind, Prepared, SolverConfig};
 use hr::{Counts, Params, Transfer};
 use tree::{Shooter, Tree};
 use twoscale::TwoScale;
@@ -197,22 +196,20 @@ impl ShootConfig {
     }
 }
 
-/// Whether a support is planar (planar patches never self-shoot, VirtualMesh §5.3).
-fn is_planar(s: &Support) -> bool {
-    matches!(
-        s.map,
-        SupportMap::Parallelogram { .. } | SupportMap::Triangle { .. } | SupportMap::Disk { .. }
-    )
-}
-
-/// Shoots a scene (see the module docs).
+/// Shoots a scene (see the module docs): equal-area supports with
+/// [`PushPull::Precomputed`], natural-coordinate curved supports with
+/// [`PushPull::Natural`] (VirtualMesh Table 3's two variants).
 ///
 /// # Errors
 /// [`SolverError`] for an invalid configuration or scene and unsupported surfaces or
 /// bases.
 pub fn shoot(scene: &Scene, config: &ShootConfig) -> Result<Solution, SolverError> {
     config.validate()?;
-    let prep = Prepared::new(scene, &config.solver_config())?;
+    let kind = match config.push_pull {
+        PushPull::Natural { .. } => ParamKind::Natural,
+        _ => ParamKind::EqualArea,
+    };
+    let prep = Prepared::with_kind(scene, &config.solver_config(), kind)?;
     shoot_prepared(&prep, config)
 }
 
@@ -231,6 +228,19 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
             "must equal the prepared basis",
         ));
     }
+    if config.push_pull == PushPull::Precomputed
+        && !prep
+            .patches
+            .patches
+            .iter()
+            .all(|p| p.support.is_equal_area())
+    {
+        return Err(bad(
+            "push_pull",
+            "Precomputed",
+            "precomputed push/pull needs equal-area supports (constant Jacobian, VirtualMesh §5.2); use Natural",
+        ));
+    }
     let t0 = Instant::now();
     let patches = &prep.patches.patches;
     let np = patches.len();
@@ -245,26 +255,30 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
     let n = prep.basis.n();
     // Lines 1–4: B̃ = ΔB̃ = Ẽ at the roots.
     let mut trees: Vec<Tree> = (0..np).map(|p| Tree::new(p, &ts)).collect();
-    let mut emitted = [0.0; 3];
     for (p, tree) in trees.iter_mut().enumerate() {
         let e = patches[p].emission;
-        if e.iter().all(|&v| v == 0.0) {
-            continue;
-        }
-        let area = patches[p].support.area;
-        let sq = area.sqrt();
+        let sq = patches[p].support.area.sqrt();
         for ch in 0..3 {
             for a in 0..n {
-                // The constant E has coefficients E √A ∫ψ_a (ψ_0 ≡ 1).
+                // The constant E has coefficients E √A ∫ψ_a (ψ_0 ≡ 1) on the whole
+                // support; only its real points emit (the moments are real moments).
                 let v = e[ch] * sq * prep.basis.integrals()[a];
                 tree.b[ch * n + a] = v;
                 tree.db[ch * n + a] = v;
             }
-            emitted[ch] += e[ch] * area;
         }
     }
-    // The scene's mean exitance (W/m²): emitted power over the area of all patches.
-    let total_area: f64 = patches.iter().map(|p| p.support.area).sum();
+    let mut unshot: Vec<[f64; 3]> = trees.iter().map(|t| t.integral(&t.db)).collect();
+    // Emitted power: E × real area (exact for equal-area maps).
+    let mut emitted = [0.0; 3];
+    for u in &unshot {
+        for ch in 0..3 {
+            emitted[ch] += u[ch];
+        }
+    }
+    // The scene's mean exitance (W/m²): emitted power over the real area of all
+    // patches.
+    let total_area: f64 = patches.iter().map(|p| p.support.real_area()).sum();
     let b_ref = emitted.iter().fold(0.0f64, |a, &b| a.max(b)) / total_area;
     let params = Params {
         tol: config.eps * b_ref,
@@ -272,7 +286,6 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
         min_area: config.min_area,
         control_depth: config.control_depth,
     };
-    let mut unshot: Vec<[f64; 3]> = trees.iter().map(|t| t.integral(&t.db, &ts)).collect();
     let e_i: f64 = emitted.iter().sum();
     let mut escaped = [0.0; 3];
     let mut counts = Counts::default();
@@ -298,8 +311,8 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
         // Line 7: Push/Pull-Residuals; the shooter tree leaves its slot, which a decoy
         // takes when the patch sees itself.
         let mut own = std::mem::take(&mut trees[i]);
-        let power = own.integral(&own.db, &ts);
-        let self_shot = !is_planar(&patches[i].support) && patches[i].reflects();
+        let power = own.integral(&own.db);
+        let self_shot = !patches[i].support.is_planar() && patches[i].reflects();
         if self_shot {
             trees[i] = Tree::new(i, &ts);
         }
@@ -386,8 +399,8 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
         tree_bytes += t.bytes();
         let b = t.consistent(&t.b, &ts);
         let hc = t.consistent(&t.h, &ts);
-        let un = t.integral(&t.db, &ts);
-        let ih = t.integral(&t.h, &ts);
+        let un = t.integral(&t.db);
+        let ih = t.integral(&t.h);
         let rho = patches[t.keys[0].patch as usize].reflectance;
         for ch in 0..3 {
             energy.unshot[ch] += un[ch];

@@ -35,8 +35,9 @@ pub(crate) struct Tree {
     pub db: Vec<f64>,
     /// Irradiance, hierarchical form.
     pub h: Vec<f64>,
-    /// Natural push/pull: matrices and moments per node (empty for precomputed).
+    /// Natural push/pull: matrices per node (empty for precomputed).
     mats: Vec<Mats>,
+    /// Real moments per node (`n` each), see [`TwoScale::moments`].
     moments: Vec<f64>,
     n: usize,
 }
@@ -61,10 +62,10 @@ impl Tree {
         }
         if ts.per_node() {
             self.mats.push(ts.mats(&key).into_owned());
-            let mut m = vec![0.0; n];
-            ts.moments(&key, &mut m);
-            self.moments.extend(m);
         }
+        let mut m = vec![0.0; n];
+        ts.moments(&key, &mut m);
+        self.moments.extend(m);
     }
 
     /// Number of nodes.
@@ -108,13 +109,9 @@ impl Tree {
         }
     }
 
-    /// `∫_node φ_a dA` of node `i`.
-    pub fn moments(&self, i: usize, ts: &TwoScale<'_>, out: &mut [f64]) {
-        if ts.per_node() {
-            out[..self.n].copy_from_slice(&self.moments[i * self.n..][..self.n]);
-        } else {
-            ts.moments(&self.keys[i], out);
-        }
+    /// `∫_{node ∩ real} φ_a dA` of node `i` (computed when the node was created).
+    pub fn moments(&self, i: usize, out: &mut [f64]) {
+        out[..self.n].copy_from_slice(&self.moments[i * self.n..][..self.n]);
     }
 
     /// Consistent form of a hierarchical-form quantity (push to the leaves, then pull
@@ -162,7 +159,7 @@ impl Tree {
     }
 
     /// `∫ q dA` per channel of a hierarchical-form quantity (W for radiosity).
-    pub fn integral(&self, q: &[f64], ts: &TwoScale<'_>) -> [f64; 3] {
+    pub fn integral(&self, q: &[f64]) -> [f64; 3] {
         let n = self.n;
         let mut mom = [0.0; 16];
         let mut out = [0.0; 3];
@@ -171,7 +168,7 @@ impl Tree {
             if vals.iter().all(|&x| x == 0.0) {
                 continue;
             }
-            self.moments(i, ts, &mut mom);
+            self.moments(i, &mut mom);
             for (ch, o) in out.iter_mut().enumerate() {
                 *o += (0..n).map(|a| vals[ch * n + a] * mom[a]).sum::<f64>();
             }
@@ -192,7 +189,7 @@ impl Tree {
         let n = self.n;
         let i = self.find_or_create(key, ts);
         let mut mom = [0.0; 16];
-        self.moments(i, ts, &mut mom);
+        self.moments(i, &mut mom);
         let mut arrived = [0.0; 3];
         let mut reflected = [0.0; 3];
         for ch in 0..3 {

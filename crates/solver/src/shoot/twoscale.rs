@@ -18,7 +18,9 @@
 //!   constant `J` they reproduce the precomputed matrices (to rounding, ~1e-15).
 //!
 //! Push is exact (a parent polynomial restricted to a child cell is a child
-//! polynomial) in both variants; pull is the `J`-weighted `L²` projection.
+//! polynomial) in both variants; pull is the `J`-weighted `L²` projection. Transfer
+//! blocks keep their receiver-side weights (the support's `area·h²`, VirtualMesh §4.2
+//! "S is a receiver"); only real points count in the moments (energy).
 
 use std::borrow::Cow;
 
@@ -29,6 +31,7 @@ use crate::basis::TreeBasis;
 use crate::error::SolverError;
 use crate::hierarchy::NodeKey;
 use crate::support::Patch;
+use crate::system::cell_real_moments;
 
 /// Push/pull matrices of one node and its four children (`n × n`, row-major,
 /// `[a * n + b]` with `a` a parent function and `b` a child function):
@@ -64,11 +67,10 @@ pub(crate) struct TwoScale<'a> {
     natural: Option<(Vec<f64>, Vec<f64>)>,
 }
 
-/// The Jacobian `|∂χ/∂s × ∂χ/∂t|` of a patch's map at `(s, t)` (area per unit
-/// parameter area). Today's supports are all equal-area maps, so it is the support's
-/// area; natural-coordinate supports replace this hook.
-fn jacobian(p: &Patch, _s: f64, _t: f64) -> f64 {
-    p.support.area
+/// The Jacobian `|∂χ/∂s × ∂χ/∂t|` of a patch's map at `(s, t)` (world area per unit
+/// parameter area): constant for equal-area maps.
+fn jacobian(p: &Patch, s: f64, t: f64) -> f64 {
+    p.support.jacobian(s, t)
 }
 
 impl<'a> TwoScale<'a> {
@@ -131,35 +133,13 @@ impl<'a> TwoScale<'a> {
         }
     }
 
-    /// `∫_node φ_a dA` for every function `a` (units: √m²).
+    /// `∫_{node ∩ real} φ_a dA` for every function `a` (units: √m²): only real points
+    /// emit, receive and absorb (VirtualMesh §4.2); the same rule as
+    /// [`crate::System`]'s leaf moments.
     pub fn moments(&self, key: &NodeKey, out: &mut [f64]) {
-        let area = self.area(key);
-        match &self.natural {
-            None => {
-                let s = area.sqrt();
-                for (o, i) in out.iter_mut().zip(self.basis.integrals()) {
-                    *o = s * i;
-                }
-            }
-            Some((x, w)) => {
-                let n = self.n;
-                let p = &self.patches[key.patch as usize];
-                let r = key.region();
-                let inv = 1.0 / area.sqrt();
-                let mut v = [0.0; 16];
-                out[..n].iter_mut().for_each(|o| *o = 0.0);
-                for (tj, wj) in x.iter().zip(w) {
-                    for (si, wi) in x.iter().zip(w) {
-                        let (s, t) = (r.s0 + r.h * si, r.t0 + r.h * tj);
-                        let f = wi * wj * r.h * r.h * jacobian(p, s, t) * inv;
-                        self.basis.eval(*si, *tj, &mut v[..n]);
-                        for a in 0..n {
-                            out[a] += f * v[a];
-                        }
-                    }
-                }
-            }
-        }
+        let p = &self.patches[key.patch as usize];
+        let (_, m, _) = cell_real_moments(&p.support, self.basis, &key.region(), self.area(key));
+        out[..self.n].copy_from_slice(&m);
     }
 
     fn gram_mats(&self, key: &NodeKey, x: &[f64], w: &[f64]) -> Mats {
