@@ -14,9 +14,10 @@
 //!   is refined on the fly by a control-point oracle, the shooter shoots from the level
 //!   where its representation is accurate; deposits add to `B̃` and `ΔB̃`; no link is
 //!   stored, so memory is proportional to the elements;
-//! - a curved patch may see itself: it shoots onto a *decoy* (same geometry, zero
+//! - a curved patch with a concave island sees itself
+//!   ([`crate::Support::sees_itself`]): it shoots onto a *decoy* (same geometry, zero
 //!   levels) whose levels, residuals and subdivisions are copied back (§5.3); planar
-//!   patches never self-shoot;
+//!   patches and convex sides never self-shoot;
 //! - the shooter's residual is set to zero (line 12).
 //!
 //! Energy: every shot moves power `P = ∫ΔB̃_i`; the part arriving at reflecting
@@ -287,6 +288,8 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
         control_depth: config.control_depth,
     };
     let e_i: f64 = emitted.iter().sum();
+    // Curved supports with a concave island see themselves (VirtualMesh §5.3).
+    let sees_itself: Vec<bool> = patches.iter().map(|p| p.support.sees_itself()).collect();
     let mut escaped = [0.0; 3];
     let mut counts = Counts::default();
     let mut shooters: BTreeSet<u32> = BTreeSet::new();
@@ -312,7 +315,7 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
         // takes when the patch sees itself.
         let mut own = std::mem::take(&mut trees[i]);
         let power = own.integral(&own.db);
-        let self_shot = !patches[i].support.is_planar() && patches[i].reflects();
+        let self_shot = sees_itself[i] && patches[i].reflects();
         if self_shot {
             trees[i] = Tree::new(i, &ts);
         }
