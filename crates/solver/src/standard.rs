@@ -208,6 +208,13 @@ fn add_a_b(acc: &mut [f64], a: &[f64], b: &[f64], rows: usize, cols: usize, inne
     }
 }
 
+/// `out[r] += Σ_j x[r][j] w[j]` (`x`: `out.len() × w.len()`, row-major).
+fn add_matvec(out: &mut [f64], x: &[f64], w: &[f64]) {
+    for (o, row) in out.iter_mut().zip(x.chunks_exact(w.len())) {
+        *o += row.iter().zip(w).map(|(a, b)| a * b).sum::<f64>();
+    }
+}
+
 impl<'a> StandardSystem<'a> {
     /// Decomposes `system` (built with `basis`) into the standard form and assembles
     /// its operator.
@@ -479,14 +486,7 @@ impl<'a> StandardSystem<'a> {
                 } else {
                     let mut d = vec![0.0; 3 * n];
                     for (c, &ci) in h.children[i].iter().enumerate() {
-                        add_a_b(
-                            &mut d,
-                            &ts.w[c],
-                            &nodes[ci as usize * n..][..n],
-                            3 * n,
-                            1,
-                            n,
-                        );
+                        add_matvec(&mut d, &ts.w[c], &nodes[ci as usize * n..][..n]);
                     }
                     d
                 };
@@ -550,48 +550,56 @@ impl<'a> StandardSystem<'a> {
     /// `y = G w` with the channel-independent irradiance operator (no reflectance),
     /// rows scaled by `row_scale(patch)`.
     fn apply_scaled(&self, w: &[f64], y: &mut [f64], row_scale: impl Fn(usize) -> f64 + Sync) {
-        let parts: Vec<Vec<f64>> = self
-            .blocks
-            .par_iter()
+        self.split_blocks(y)
+            .into_par_iter()
             .enumerate()
-            .map(|(rb, info)| {
-                let mut out = vec![0.0; info.size];
+            .for_each(|(rb, out)| {
+                let info = &self.blocks[rb];
+                out.fill(0.0);
                 for s in self.row_ptr[rb]..self.row_ptr[rb + 1] {
                     let cb = &self.blocks[self.col[s] as usize];
                     let x = &self.vals[self.val_off[s]..][..info.size * cb.size];
-                    add_a_b(
-                        &mut out,
-                        x,
-                        &w[cb.offset..][..cb.size],
-                        info.size,
-                        1,
-                        cb.size,
-                    );
+                    add_matvec(out, x, &w[cb.offset..][..cb.size]);
                 }
                 let f = row_scale(info.patch as usize);
                 out.iter_mut().for_each(|v| *v *= f);
-                out
-            })
-            .collect();
-        for (info, out) in self.blocks.iter().zip(parts) {
-            y[info.offset..info.offset + info.size].copy_from_slice(&out);
+            });
+    }
+
+    /// `y` cut into the coefficient ranges of the blocks, in block order (the blocks
+    /// tile `0..dim()` contiguously).
+    fn split_blocks<'y>(&self, y: &'y mut [f64]) -> Vec<&'y mut [f64]> {
+        let mut rest = y;
+        let mut out = Vec::with_capacity(self.blocks.len());
+        for b in &self.blocks {
+            let (head, tail) = std::mem::take(&mut rest).split_at_mut(b.size);
+            out.push(head);
+            rest = tail;
         }
+        out
     }
 
     /// `y = K w` for channel `ch` in tree wavelet coefficients (`ρ` per patch times
-    /// the stored operator). `w` and `y` must have length [`Self::dim`].
+    /// the stored operator).
+    ///
+    /// # Panics
+    /// If `w` or `y` is not of length [`Self::dim`] (as [`System::apply_k`]; the
+    /// [`Operator`] callers in `wavelux-linear` validate lengths first).
     pub fn apply_k(&self, ch: usize, w: &[f64], y: &mut [f64]) {
         self.apply_scaled(w, y, |p| self.patch_rho[p][ch]);
     }
 
     /// `y = Kᵀ w` for channel `ch`.
+    ///
+    /// # Panics
+    /// As [`Self::apply_k`].
     pub fn apply_kt(&self, ch: usize, w: &[f64], y: &mut [f64]) {
-        let parts: Vec<Vec<f64>> = self
-            .blocks
-            .par_iter()
+        self.split_blocks(y)
+            .into_par_iter()
             .enumerate()
-            .map(|(cb, info)| {
-                let mut out = vec![0.0; info.size];
+            .for_each(|(cb, out)| {
+                let info = &self.blocks[cb];
+                out.fill(0.0);
                 for &s in &self.by_col[self.col_ptr[cb]..self.col_ptr[cb + 1]] {
                     let s = s as usize;
                     let rb = &self.blocks[self.row[s] as usize];
@@ -608,12 +616,7 @@ impl<'a> StandardSystem<'a> {
                         }
                     }
                 }
-                out
-            })
-            .collect();
-        for (info, out) in self.blocks.iter().zip(parts) {
-            y[info.offset..info.offset + info.size].copy_from_slice(&out);
-        }
+            });
     }
 
     /// The emission vector of channel `ch` in tree wavelet coefficients.
