@@ -10,6 +10,7 @@ use crate::report::Report;
 use crate::reproduce::Ctx;
 
 mod speed_accuracy;
+mod standard;
 mod virtual_mesh_fig4;
 mod ziegler_4_1;
 mod ziegler_4_2;
@@ -65,6 +66,13 @@ pub fn all() -> Vec<Reproduction> {
             seed_file: "003_fdfe6675de3bf6ad.txt",
             title: "Error vs wall time: wavelet bases × ε × levels and the path tracer",
             run: speed_accuracy::run,
+        },
+        Reproduction {
+            id: "ziegler-2.2.3-standard",
+            source: "Ziegler §2.2.3 (standard vs non-standard realisation); Glossy §3.5",
+            seed_file: "004_cb5b08859768bf36.txt",
+            title: "Standard vs non-standard decomposition of the same links: sparsity, solve cost, agreement",
+            run: standard::run,
         },
     ]
 }
