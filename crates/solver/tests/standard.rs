@@ -11,7 +11,8 @@ use wavelux_scene::Scene;
 use wavelux_scene::builtin::{cornell_box, unoccluded};
 use wavelux_solver::standard::{self, Decomposition, StandardSystem};
 use wavelux_solver::{
-    BasisKind, LinearMethod, Prepared, Solution, SolverConfig, SolverError, Statistics, solve,
+    BasisKind, LinearMethod, Multigrid, Prepared, Solution, SolverConfig, SolverError, Statistics,
+    solve,
 };
 
 fn config(basis: BasisKind, eps: f64, max_level: u8) -> SolverConfig {
@@ -80,6 +81,20 @@ fn standard_and_nonstandard_solutions_agree_on_unoccluded() {
     let scene = unoccluded();
     agree(&scene, config(BasisKind::Haar, 1e-3, 4));
     agree(&scene, config(BasisKind::Multiwavelet(2), 1e-3, 3));
+}
+
+#[test]
+fn standard_decomposition_in_the_refine_solve_loop() {
+    // Later stages start from the previous solution projected onto the new leaves,
+    // which the standard path decomposes before iterating.
+    let cfg = SolverConfig {
+        multigrid: Some(Multigrid {
+            stages: 2,
+            factor: 10.0,
+        }),
+        ..config(BasisKind::Haar, 1e-3, 4)
+    };
+    agree(&unoccluded(), cfg);
 }
 
 #[test]
