@@ -20,7 +20,9 @@
 //!    exceeds `tol`, `R`'s children receive recursively (they exist from then on);
 //!    otherwise the pulled irradiance is deposited at `R`;
 //! 3. at the deepest level (or below `min_area`) the node's own transfer is deposited
-//!    (pulled from the parent's control cells when those were the node itself).
+//!    (pulled from the parent's control cells when those were the node itself); so it
+//!    is when the whole transfer is below the tolerance, `ρ_R · F̄ · RMS(ΔB_E) ≤ tol`
+//!    (one block instead of the control cells' four: most receivers of a weak shot).
 //!
 //! Receiver cells without real points (virtual supports, VirtualMesh §5.4 "empty
 //! meshes") neither receive nor count in the oracle; emitter cells without real points
@@ -177,8 +179,17 @@ impl Transfer<'_> {
                 return;
             }
         }
-        // 3. Deepest level: the node's own transfer.
-        if !self.can_split(&r) {
+        // 3. Deepest level, or a transfer below the tolerance altogether (its detail
+        // cannot exceed it: `ρ F̄ · RMS(ΔB_E) ≤ tol`): the node's own transfer.
+        let weak = || {
+            let area_e = self.ts.area(&ek);
+            let rms = (0..3).fold(0.0f64, |a, ch| {
+                let e2: f64 = src[ch * n..][..n].iter().map(|v| v * v).sum();
+                a.max(rho[ch] * (e2 / area_e).sqrt())
+            });
+            rms * self.ff_bound(&rr, &er) <= self.p.tol
+        };
+        if !self.can_split(&r) || (known.is_none() && weak()) {
             let hv = known.unwrap_or_else(|| {
                 cnt.blocks += 1;
                 self.irradiance(&rr, e)

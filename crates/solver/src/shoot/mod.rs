@@ -423,6 +423,7 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
             }
         }
     }
+    let [cells_empty, cells_partial, cells_full] = system.coverage_counts;
     let stats = Statistics {
         elements: nn,
         leaves: system.h.leaves.len(),
@@ -438,6 +439,9 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
         shots: record.len(),
         shooting_surfaces: shooters.len(),
         shot_convergence: record,
+        cells_empty,
+        cells_partial,
+        cells_full,
         ..Statistics::default()
     };
     Ok(Solution::from_parts(
