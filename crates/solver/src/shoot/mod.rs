@@ -37,6 +37,13 @@
 //! tolerances of all shots sum to `eps · B̄ · Σ P_s / E_i ≤ eps · B̄ / (1 − ρ_max)`.
 //! A weak shot is thus refined as finely, relative to its size, as a strong one.
 //!
+//! Statistics: `elements`/`leaves` of all trees, `links = 0`, `shots`,
+//! `shooting_surfaces`, `shot_convergence`, `oracle_evals` (receiver and shooter
+//! decisions), `kernel_evals` and `rays` of every transfer block, `bytes` (trees,
+//! compiled hierarchy and the solution's vectors), `time_setup` (supports,
+//! accelerator, rules), `time_solve` (the shooting loop, refinement included;
+//! `time_refine` stays zero).
+//!
 //! The result is a [`Solution`] like the gathering solver's: its
 //! [`crate::System`] holds a [`crate::Hierarchy`] compiled from the element trees with
 //! zero links, so rendering, averages and exports work unchanged.
