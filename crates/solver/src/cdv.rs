@@ -36,16 +36,17 @@
 //!
 //! Ziegler §3.3.3 interpolates the kernel linearly between 3 equidistant samples over
 //! each support and integrates the hat functions against the CDV functions with
-//! precomputed moments. We use the equivalent Galerkin form: every CDV vertex function
-//! is projected *exactly* (`Mra::legendre_products`, exact cell moments from the
-//! refinement equation) onto the piecewise-bilinear (`M2`) functions of the level-`j`
+//! precomputed moments. We use a Galerkin form of the same idea: every CDV vertex
+//! function is projected *exactly* (`Mra::legendre_products`, exact cell moments from
+//! the refinement equation) onto the tensor piecewise polynomials `M_p` (Alpert scaling
+//! functions, `p =` [`CDV_QUADRATURE_P`] `= 3` per axis: degree ≤ 2) of the level-`j`
 //! cells of its support, and `T_ab = Σ_{c,c'} P_a[c]ᵀ M(c,c') P_b[c']` with `M(c,c')` the
-//! `M2` transfer block of the cell pair from [`TransferCtx::block`] (`n_samp` Gauss
+//! `M_p` transfer block of the cell pair from [`TransferCtx::block`] (`n_samp` Gauss
 //! points per axis and cell, singular rules for touching cells, near-field splitting,
 //! visibility in quadrature with the accelerator). Like Ziegler's rule it is exact for
-//! kernels that are (bi)linear on each cell pair, so the wavelets' two vanishing moments
-//! are preserved exactly; its error is `⟨(I−P)a, (I−P)Kb⟩`, second order in the
-//! cell size. Cell-pair blocks are computed once per level and shared by all the
+//! kernels that are (bi)linear on each cell pair (in fact of degree ≤ `p − 1` per
+//! variable), so the wavelets' two vanishing moments are preserved exactly; its error
+//! is `⟨(I−P)a, (I−P)Kb⟩`, of order `h^p` in the cell size `h`. Cell-pair blocks are computed once per level and shared by all the
 //! overlapping vertex pairs that need them.
 //!
 //! # Solution
@@ -56,6 +57,10 @@
 //! whose leaves hold the *exact* cell averages of the CDV expansion (radiosity and
 //! irradiance), so node/patch/surface averages and energy are exact; point queries
 //! ([`crate::Solution::radiosity`]) evaluate the CDV expansion itself.
+//!
+//! Supports must be planar, unmasked and equal-area (every point of the unit square
+//! real, `dA = |S| ds dt`, no self-links); virtual (masked) and curved supports are
+//! rejected with [`SolverError::UnsupportedSurface`] and are solved with the tree bases.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -69,7 +74,7 @@ use crate::basis::{BasisKind, TreeBasis};
 use crate::error::SolverError;
 use crate::hierarchy::{Hierarchy, NodeKey, Oracle, RefineCounts, RefineParams};
 use crate::solution::{Energy, Solution, Statistics};
-use crate::support::Patch;
+use crate::support::{Coverage, Patch};
 use crate::system::System;
 use crate::transfer::{Region, TransferCtx};
 
@@ -131,7 +136,7 @@ struct Level1d {
 }
 
 /// The CDV MRA with everything the solver needs per level (two-scale rows, exact
-/// projections onto the `M2` cell functions, integrals).
+/// projections onto the `M_p` cell functions, integrals).
 #[derive(Debug)]
 pub struct CdvBasis {
     mra: Cdv,
@@ -142,11 +147,11 @@ pub struct CdvBasis {
 }
 
 impl CdvBasis {
-    /// Builds levels `CDV_MIN_LEVEL..=max_level`; `quad` must be the `M2` basis of the
+    /// Builds levels `CDV_MIN_LEVEL..=max_level`; `quad` must be the `M_p` basis of the
     /// transfer context (its cell functions define the projections).
     ///
     /// # Errors
-    /// [`SolverError::InvalidConfig`] if `max_level < 2` or `quad` is not `M2`;
+    /// [`SolverError::InvalidConfig`] if `max_level < 2` or `quad` is not `M_p`, `2 ≤ p ≤ 4`;
     /// [`SolverError::Dependency`] if the MRA rejects a request.
     pub fn new(max_level: u8, quad: &TreeBasis) -> Result<Self, SolverError> {
         if max_level < CDV_MIN_LEVEL {
@@ -708,7 +713,7 @@ fn children(basis: &CdvBasis, j: u8, lv: &Level1d, refined: &[PairKey]) -> Vec<P
     parts.concat()
 }
 
-/// Blocks of the stored pairs of level `j` from shared `M2` cell-pair blocks.
+/// Blocks of the stored pairs of level `j` from shared `M_p` cell-pair blocks.
 fn compute_links(
     ctx: &TransferCtx<'_>,
     basis: &CdvBasis,
@@ -1155,9 +1160,23 @@ impl CdvField {
 /// [`SolverError`] for invalid configuration and linear-solver failures.
 pub fn solve(prep: &Prepared) -> Result<Solution, SolverError> {
     let cfg = &prep.config;
+    let patches = &prep.patches.patches;
+    // The expansion `B = Σ c φφ / √|S|` and the exact integrals assume every point of
+    // the unit square is real and `dA = |S| ds dt`.
+    for p in patches {
+        let sup = &p.support;
+        if !sup.is_planar() || !sup.is_equal_area() || sup.coverage(0.0, 0.0, 1.0) != Coverage::Full
+        {
+            return Err(SolverError::UnsupportedSurface {
+                surface: format!("#{}", p.surface),
+                kind: "CDV needs planar, unmasked, equal-area supports (virtual and curved \
+                       supports are solved with the tree bases)"
+                    .into(),
+            });
+        }
+    }
     let ctx = prep.transfer()?;
     let basis = Arc::new(CdvBasis::new(cfg.max_level, &prep.basis)?);
-    let patches = &prep.patches.patches;
     let stages = cfg.multigrid.map_or(1, |m| m.stages);
     let factor = cfg.multigrid.map_or(1.0, |m| m.factor);
     let mut stats = Statistics {
