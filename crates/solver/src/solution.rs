@@ -284,7 +284,8 @@ impl Solution {
         })
     }
 
-    /// Area-average radiosity of a patch.
+    /// Area-average radiosity of a patch over its whole support (parameter measure;
+    /// real and virtual points of a virtual support alike).
     ///
     /// # Panics
     /// If `patch` is out of range.
@@ -292,7 +293,33 @@ impl Solution {
         self.average_of(self.system.h.roots[patch] as usize)
     }
 
-    /// Area-average radiosity of a scene surface's front side (all its pieces).
+    /// `(∫_real B dA, real area)` of a patch (VirtualMesh §4: only real points count;
+    /// `O(leaves)`).
+    ///
+    /// # Panics
+    /// If `patch` is out of range.
+    pub fn patch_real_integral(&self, patch: usize) -> ([f64; 3], f64) {
+        let h = &self.system.h;
+        let n = h.n;
+        let mut acc = [0.0; 3];
+        let mut area = 0.0;
+        for (l, &i) in h.leaves.iter().enumerate() {
+            if h.keys[i as usize].patch as usize != patch {
+                continue;
+            }
+            let m = &self.system.leaf_real_moments[l * n..][..n];
+            for (c, a) in acc.iter_mut().enumerate() {
+                *a += (0..n)
+                    .map(|k| self.node_b[c][i as usize * n + k] * m[k])
+                    .sum::<f64>();
+            }
+            area += self.system.leaf_real_area[l];
+        }
+        (acc, area)
+    }
+
+    /// Average radiosity of a scene surface's front side over its real area (all its
+    /// pieces; for unmasked equal-area supports the plain area average).
     ///
     /// # Panics
     /// If `surface` is out of range.
@@ -303,10 +330,15 @@ impl Solution {
             if self.patches[p].side != Side::Front {
                 continue;
             }
-            let a = self.patches[p].support.area;
-            let v = self.patch_average(p);
+            let sup = &self.patches[p].support;
+            let (v, a) = if sup.mask.is_none() && sup.is_equal_area() {
+                let a = sup.area;
+                (self.patch_average(p).map(|x| x * a), a)
+            } else {
+                self.patch_real_integral(p)
+            };
             for c in 0..3 {
-                acc[c] += a * v[c];
+                acc[c] += v[c];
             }
             area += a;
         }

@@ -295,6 +295,18 @@ impl Support {
         }
     }
 
+    /// `(χ(s, t), normal_at(s, t))` with one evaluation of a curved map.
+    #[inline]
+    pub fn point_normal(&self, s: f64, t: f64) -> (DVec3, DVec3) {
+        match (&self.map, &self.param) {
+            (SupportMap::Mapped { .. }, Some(p)) => {
+                let e = p.eval(self.lambda(s, t));
+                (e.position, self.orientation * e.normal)
+            }
+            _ => (self.point(s, t), self.normal),
+        }
+    }
+
     /// Unit normal of this side at `(s, t)`: constant for planar maps, `±Ψ`'s normal
     /// for curved maps (flipped for back sides).
     #[inline]
@@ -460,14 +472,15 @@ impl Support {
                 (m, 1.1 * r)
             }
             SupportMap::Mapped { .. } => {
-                // A 5×5 grid of the smooth image, padded for the sag between samples.
-                let mut pts = [DVec3::ZERO; 25];
+                // A 3×3 grid of the smooth image, padded by a quarter for the sag
+                // between samples.
+                let mut pts = [DVec3::ZERO; 9];
                 for (k, p) in pts.iter_mut().enumerate() {
-                    *p = self.point(s0 + h * (k % 5) as f64 / 4.0, t0 + h * (k / 5) as f64 / 4.0);
+                    *p = self.point(s0 + h * (k % 3) as f64 / 2.0, t0 + h * (k / 3) as f64 / 2.0);
                 }
-                let m = pts.iter().copied().sum::<DVec3>() / 25.0;
+                let m = pts.iter().copied().sum::<DVec3>() / 9.0;
                 let r = pts.iter().map(|p| (*p - m).length()).fold(0.0, f64::max);
-                (m, 1.15 * r)
+                (m, 1.25 * r)
             }
         }
     }

@@ -600,22 +600,24 @@ impl<'a> TransferCtx<'a> {
                 es.s0 + es.h * p[2],
                 es.t0 + es.h * p[3],
             );
-            let x = pr.support.point(s, t);
-            let y = pe.support.point(u, v);
+            let (x, nx) = pr.support.point_normal(s, t);
+            let (y, ny) = pe.support.point_normal(u, v);
             *evals += 1;
-            let mut g = kernel(x, pr.support.normal_at(s, t), y, pe.support.normal_at(u, v));
+            let mut g = kernel(x, nx, y, ny);
             if g == 0.0 {
                 continue;
             }
-            if with_vis
-                && !self.visible(
-                    pr.support.visibility_point(s, t),
-                    pr,
-                    pe.support.visibility_point(u, v),
-                    pe,
-                    rays,
-                )
-            {
+            let vx = if pr.support.mask.is_some() {
+                pr.support.visibility_point(s, t)
+            } else {
+                x
+            };
+            let vy = if pe.support.mask.is_some() {
+                pe.support.visibility_point(u, v)
+            } else {
+                y
+            };
+            if with_vis && !self.visible(vx, pr, vy, pe, rays) {
                 g = 0.0;
             }
             if g == 0.0 {
@@ -729,10 +731,10 @@ impl<'a> TransferCtx<'a> {
                     }
                     (true, Coverage::Partial) => weight_in(p, sub, (gx, gw, gc), js, jt),
                 };
-                let x = p.support.point(s, t);
+                let (x, nx) = p.support.point_normal(s, t);
                 pts.push(Sample {
                     x,
-                    n: p.support.normal_at(s, t),
+                    n: nx,
                     v: if p.support.mask.is_some() {
                         p.support.visibility_point(s, t)
                     } else {
@@ -765,11 +767,13 @@ impl<'a> TransferCtx<'a> {
             (0..m * m)
                 .map(|i| {
                     let (s, t) = (g.s0 + g.h * pos[i % m], g.t0 + g.h * pos[i / m]);
-                    (
-                        p.support.point(s, t),
-                        p.support.normal_at(s, t),
-                        p.support.visibility_point(s, t),
-                    )
+                    let (x, n) = p.support.point_normal(s, t);
+                    let v = if p.support.mask.is_some() {
+                        p.support.visibility_point(s, t)
+                    } else {
+                        x
+                    };
+                    (x, n, v)
                 })
                 .collect()
         };

@@ -174,6 +174,8 @@ fn trimmed_emitters_emit_exactly_real_area_times_exitance() {
             sol.stats.cells_empty, sol.stats.cells_partial, sol.stats.cells_full
         );
         assert!(rel(emitted, exact) < 1e-6, "{name}: {emitted} vs {exact}");
+        // The real-area average of a non-reflecting lamp is its exitance.
+        assert!(rel(sol.surface_average(0)[0], 2.5) < 1e-9);
         // The floor receives no more than the lamp emits.
         assert!(sol.energy.absorbed[0] <= emitted * (1.0 + 1e-9));
     }
