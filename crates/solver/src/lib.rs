@@ -11,7 +11,10 @@
 //! (`wavelux-linear`, Ziegler §2.3, §4.2).
 //!
 //! Modules:
-//! - [`support`]: equal-area unit-square supports and patches (one per lit side);
+//! - [`support`]: unit-square supports (exact, or Virtual Mesh virtual supports of
+//!   complex polygons and curved patches) and patches (one per lit side);
+//! - [`mask`]: trim masks of virtual supports (real/virtual points, exact coverage
+//!   and real-area fractions, nearest real points; VirtualMesh §4, §5.4);
 //! - [`basis`]: 2D tree bases from `wavelux-mra`, two-scale (push/pull) matrices;
 //! - [`transfer`]: kernel, transfer blocks (regular Gauss, singular Sauter–Schwab
 //!   rules for touching elements, visibility in quadrature or fractional), oracle;

@@ -23,6 +23,21 @@
 //!   are interior). Without the rescaling, sliver wedges of triangle supports that
 //!   share an edge got form factors up to ~2 (Cornell box, level 4).
 //!
+//! Virtual supports (VirtualMesh §4): the kernel takes each sample's own normal
+//! (`Support::normal_at`; curved maps); receivers integrate over the whole support
+//! (weights `area·h²`, the basis normalisation), emitters with the area element
+//! `Support::jacobian` times the real fraction of each Gauss point's cell (the
+//! partition of `[0,1]` by cumulative Gauss weights), so virtual points emit nothing
+//! and a partial emitter emits exactly its real area; partial emitters are split up to
+//! `max_split_depth` times even when far, and empty ones skipped. Shadow rays run
+//! between the points' nearest real points (ṽ, §4.1) against the true trimmed
+//! geometry. Curved supports are not affine: touching sub-squares of one curved
+//! patch use the identical/edge/vertex rules in parameter space (the kernel is
+//! bounded but direction-dependent there), identical sub-squares with a partial
+//! emitter a `(q+1)`-point emitter rule (no coincident nodes); touching pairs of a
+//! curved and another support are split and Gauss-integrated (no singular rule: the
+//! weakest spot, ~1–4% on a cylinder's rim junction with its end disks).
+//!
 //! Visibility (Ziegler §3.3.3, §4.1.2): *in quadrature* (one shadow ray per sample
 //! pair, the default), *fractional* (Hanrahan: the unoccluded block times the
 //! visible fraction of 16 fixed ray pairs between 4×4 grids) or *off*.
