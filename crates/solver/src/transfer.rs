@@ -778,10 +778,14 @@ impl<'a> TransferCtx<'a> {
         let pr = &self.patches[r.patch];
         let pe = &self.patches[e.patch];
         let pos: Vec<f64> = (0..m).map(|i| (i as f64 + 0.5) / m as f64).collect();
-        let grid = |p: &Patch, g: &Region| -> Vec<(DVec3, DVec3, DVec3)> {
+        // A curved self pair samples the emitter a quarter cell off the receiver's
+        // points: the kernel is undefined (zero) at coincident points and would fake
+        // a discontinuity on the diagonal.
+        let shift = if r == e { 0.25 / m as f64 } else { 0.0 };
+        let grid = |p: &Patch, g: &Region, d: f64| -> Vec<(DVec3, DVec3, DVec3)> {
             (0..m * m)
                 .map(|i| {
-                    let (s, t) = (g.s0 + g.h * pos[i % m], g.t0 + g.h * pos[i / m]);
+                    let (s, t) = (g.s0 + g.h * (pos[i % m] + d), g.t0 + g.h * (pos[i / m] + d));
                     let (x, n) = p.support.point_normal(s, t);
                     let v = if p.support.mask.is_some() {
                         p.support.visibility_point(s, t)
@@ -792,8 +796,8 @@ impl<'a> TransferCtx<'a> {
                 })
                 .collect()
         };
-        let xs = grid(pr, r);
-        let ys = grid(pe, e);
+        let xs = grid(pr, r, 0.0);
+        let ys = grid(pe, e, shift);
         let mut k = vec![0.0; m * m * m * m];
         let mut rays = 0u64;
         for (i, (x, nx, vx)) in xs.iter().enumerate() {

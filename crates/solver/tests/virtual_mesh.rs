@@ -816,9 +816,9 @@ fn closed_cylinder_form_factors_match_closed_forms() {
     let f_tt = 1.0 - 2.0 * f_td;
     // Measured (Haar, one link per pair): tube←tube +0.24% (Duffy rules of the
     // curved self pair; the residual is the periodic seam, a bounded but non-smooth
-    // kernel); tube↔disk +3.7%/−0.8% (q 4/6: the junction's 1/r² edge singularity
-    // between a curved and a planar support is only split and Gauss-integrated);
-    // disk←disk +0.65%.
+    // kernel); tube↔disk +3.7% (depth 2, q 4) and −0.26% (depth 3, q 6): the
+    // junction's 1/r² edge singularity between a curved and a planar support is only
+    // split and Gauss-integrated; disk←disk +0.65% / +0.31%.
     for (depth, q) in [(2u32, 4usize), (3, 6)] {
         let cfg = SolverConfig {
             max_level: 0,
