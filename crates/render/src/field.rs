@@ -3,19 +3,32 @@
 //! [`RadiosityField`] is the renderer's view of "any solution": geometry to trace
 //! against, and the exitant radiosity, emission and reflectance of the side of a
 //! surface a ray hit. [`SolutionField`] implements it for a
-//! `wavelux_solver::Solution`: its accelerator holds one primitive per solver support
-//! (the same pieces the solver meshed), and a hit is mapped to the solver's
-//! `(patch, s, t)` by inverting the support's equal-area map (parallelogram: affine;
-//! triangle: `a + √s((1−t)(b−a) + t(c−a))`; disk: Shirley–Chiu concentric).
+//! `wavelux_solver::Solution`: its accelerator holds one exact primitive per solver
+//! support (the same pieces the solver meshed; for a Virtual Mesh *virtual* support
+//! only its real part: the masked polygon, the trimmed patch), and a hit is mapped to
+//! the solver's `(patch, s, t)` by inverting the support's map (parallelogram:
+//! affine; triangle: `a + √s((1−t)(b−a) + t(c−a))`; disk: Shirley–Chiu concentric;
+//! curved `Ψ(Λ(s,t))`: the hit's parameters on `Ψ` — the trimmed patch's own `(u, v)` —
+//! through `Λ⁻¹`, VirtualMesh §3 Fig. 3).
+//!
+//! Emitters are sampled uniformly by *real* area (virtual points of a masked support
+//! are rejected; the equal-area maps make uniform `(s, t)` uniform by area), with the
+//! per-point normal of curved supports. Supports on non-equal-area maps are not
+//! sampled (the final gather then finds their light by its own rays).
+//!
+//! [`side_average`] is the real-area average of one side of a surface (what a user
+//! reads as the surface's radiosity).
 
 use glam::{DVec2, DVec3};
+use rand::RngExt;
 use wavelux_geometry::{
     Accel, ComplexPolygon, Edge2, Hit, Parallelogram, PlaneFrame, Primitive, Triangle, TrimLoop,
-    TrimRegion,
+    TrimRegion, TrimmedPatch,
 };
-use wavelux_solver::{Side, Solution, SupportMap};
+use wavelux_solver::{Side, Solution, Support, SupportMap};
 
 use crate::RenderError;
+use crate::sampling::rng_for;
 
 /// Where a ray landed on a field's geometry, resolved to a lit side.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -88,14 +101,36 @@ fn geo(e: wavelux_geometry::GeometryError) -> RenderError {
     RenderError::Scene(e.to_string())
 }
 
-/// The primitive that the support map covers.
-pub(crate) fn support_primitive(map: &SupportMap) -> Result<Primitive, RenderError> {
-    Ok(match *map {
+/// The exact primitive a support covers: the whole image of its map, or for a virtual
+/// (masked) support only its real part — the polygon in the plane of a masked
+/// parallelogram, the trimmed patch of a curved map.
+pub(crate) fn support_primitive(sup: &Support) -> Result<Primitive, RenderError> {
+    Ok(match sup.map {
         SupportMap::Parallelogram {
             origin,
             edge_u,
             edge_v,
-        } => Primitive::Parallelogram(Parallelogram::new(origin, edge_u, edge_v).map_err(geo)?),
+        } => match &sup.mask {
+            None => {
+                Primitive::Parallelogram(Parallelogram::new(origin, edge_u, edge_v).map_err(geo)?)
+            }
+            Some(mask) => {
+                // The mask plane is the polygon's orthonormal frame F(p) = O + L p with
+                // F(Λ(s,t)) = origin + s·edge_u + t·edge_v: L = [edge_u edge_v]·[e1 e2]⁻¹.
+                let (mo, e1, e2) = mask.lambda();
+                let det = e1.perp_dot(e2);
+                if det.abs() <= f64::MIN_POSITIVE {
+                    return Err(RenderError::Scene("degenerate masked support".into()));
+                }
+                let lx = (edge_u * e2.y - edge_v * e1.y) / det;
+                let ly = (edge_v * e1.x - edge_u * e2.x) / det;
+                let o = origin - lx * mo.x - ly * mo.y;
+                let frame = PlaneFrame::from_axes(o, lx, ly).map_err(geo)?;
+                Primitive::Polygon(Box::new(
+                    ComplexPolygon::new(frame, mask.region().clone()).map_err(geo)?,
+                ))
+            }
+        },
         SupportMap::Triangle { a, b, c } => {
             Primitive::Triangle(Triangle::new(a, b, c).map_err(geo)?)
         }
@@ -110,6 +145,14 @@ pub(crate) fn support_primitive(map: &SupportMap) -> Result<Primitive, RenderErr
             let region =
                 TrimRegion::new(vec![TrimLoop::new(vec![edge]).map_err(geo)?]).map_err(geo)?;
             Primitive::Polygon(Box::new(ComplexPolygon::new(frame, region).map_err(geo)?))
+        }
+        SupportMap::Mapped { .. } => {
+            let param = sup
+                .param
+                .clone()
+                .ok_or_else(|| RenderError::Scene("curved support without its map".into()))?;
+            let trim = sup.mask.as_ref().map(|m| m.region().clone());
+            Primitive::Trimmed(Box::new(TrimmedPatch::new(param, trim).map_err(geo)?))
         }
         #[allow(unreachable_patterns)]
         _ => {
@@ -131,8 +174,10 @@ fn plane_coords(d: DVec3, e1: DVec3, e2: DVec3) -> (f64, f64) {
     ((p * c - q * b) / det, (a * q - b * p) / det)
 }
 
-/// Inverse of a support map for a point on (or numerically near) its image.
-pub(crate) fn invert_support(map: &SupportMap, p: DVec3) -> DVec2 {
+/// Inverse of a support map for a point on (or numerically near) its image; `uv`: the
+/// point's parameters on a curved support's map `Ψ` (the hit's parameters on the
+/// trimmed patch [`support_primitive`] builds), from which `(s, t) = Λ⁻¹(uv)`.
+pub(crate) fn invert_support(map: &SupportMap, p: DVec3, uv: DVec2) -> DVec2 {
     let st = match *map {
         SupportMap::Parallelogram {
             origin,
@@ -174,6 +219,11 @@ pub(crate) fn invert_support(map: &SupportMap, p: DVec3) -> DVec2 {
             };
             DVec2::new(0.5 * (sx + 1.0), 0.5 * (sy + 1.0))
         }
+        SupportMap::Mapped { origin, e1, e2 } => {
+            let det = e1.perp_dot(e2);
+            let d = uv - origin;
+            DVec2::new(d.perp_dot(e2) / det, e1.perp_dot(d) / det)
+        }
         #[allow(unreachable_patterns)]
         _ => DVec2::splat(0.5),
     };
@@ -193,36 +243,38 @@ impl<'a> SolutionField<'a> {
             .max()
             .unwrap_or(0);
         let mut sides = vec![[None, None]; n];
-        let mut pieces: Vec<Option<SupportMap>> = vec![None; n];
+        let mut pieces: Vec<Option<&Support>> = vec![None; n];
         for (i, p) in solution.patches.iter().enumerate() {
             let k = p.prim as usize;
             match p.side {
                 Side::Front => {
                     sides[k][0] = Some(i);
-                    pieces[k] = Some(p.support.map);
+                    pieces[k] = Some(&p.support);
                 }
                 Side::Back => {
                     sides[k][1] = Some(i);
                     if pieces[k].is_none() {
-                        pieces[k] = Some(p.support.map);
+                        pieces[k] = Some(&p.support);
                     }
                 }
             }
         }
-        let pieces: Vec<SupportMap> = pieces
+        let pieces: Vec<&Support> = pieces
             .into_iter()
             .map(|m| m.ok_or_else(|| RenderError::Scene("solution has a gap in its pieces".into())))
             .collect::<Result<_, _>>()?;
         let prims = pieces
             .iter()
-            .map(support_primitive)
+            .map(|s| support_primitive(s))
             .collect::<Result<Vec<_>, _>>()?;
+        let pieces: Vec<SupportMap> = pieces.iter().map(|s| s.map).collect();
         let accel = Accel::build(prims).map_err(geo)?;
         let mut emitters = (Vec::new(), Vec::new());
         let mut tot = 0.0;
         for (i, p) in solution.patches.iter().enumerate() {
-            if p.emission.iter().any(|&e| e > 0.0) {
-                tot += p.support.area;
+            // Uniform (s, t) is uniform by area only on equal-area maps.
+            if p.emission.iter().any(|&e| e > 0.0) && p.support.is_equal_area() {
+                tot += p.support.real_area();
                 emitters.0.push(i);
                 emitters.1.push(tot);
             }
@@ -246,7 +298,7 @@ impl RadiosityField for SolutionField<'_> {
         let k = hit.prim as usize;
         let [front, back] = *self.sides.get(k)?;
         let patch = if hit.front { front? } else { back? };
-        let st = invert_support(&self.pieces[k], hit.point);
+        let st = invert_support(&self.pieces[k], hit.point, hit.uv);
         let p = &self.solution.patches[patch];
         Some(SurfacePoint {
             surface: p.surface,
@@ -275,15 +327,67 @@ impl RadiosityField for SolutionField<'_> {
         let x = u[0] * tot;
         let j = cdf.partition_point(|&c| c <= x).min(ids.len() - 1);
         let p = &self.solution.patches[ids[j]];
-        // Every support map is equal-area, so uniform (s, t) is uniform by area.
+        let sup = &p.support;
+        // Every sampled support map is equal-area, so uniform (s, t) is uniform by
+        // area; virtual points of a masked support are rejected, further candidates
+        // coming from a stream seeded by `u` (deterministic per sample).
+        let (mut s, mut t) = (u[1], u[2]);
+        if !sup.is_real(s, t) {
+            let key = u.iter().fold(0u64, |a, v| a.rotate_left(21) ^ v.to_bits());
+            let mut rng = rng_for(key, ids[j] as u64, 0xE417);
+            let mut found = false;
+            for _ in 0..100_000 {
+                (s, t) = (rng.random(), rng.random());
+                if sup.is_real(s, t) {
+                    found = true;
+                    break;
+                }
+            }
+            if !found {
+                return None;
+            }
+        }
         Some(EmitterSample {
-            point: p.support.point(u[1], u[2]),
-            normal: p.support.normal,
+            point: sup.point(s, t),
+            normal: sup.normal_at(s, t),
             emission: p.emission,
             total_area: tot,
             prim: p.prim,
         })
     }
+}
+
+/// Real-area average radiosity of one side of a scene surface over all its pieces
+/// (W/m², RGB): `Σ ∫_real B dA / Σ |real area|`, from the leaf coefficients and the
+/// leaves' real moments (`∫_real φ dA`, VirtualMesh §4.2), so the virtual points of a
+/// masked support do not count. `None` if the surface is out of range or has no
+/// piece lit on that side.
+pub fn side_average(solution: &Solution, surface: usize, side: Side) -> Option<[f64; 3]> {
+    let pieces = solution.by_surface.get(surface)?;
+    let sys = &solution.system;
+    let h = &sys.h;
+    let n = h.n;
+    let mine: Vec<bool> = {
+        let mut v = vec![false; solution.patches.len()];
+        for &p in pieces {
+            v[p] = solution.patches[p].side == side;
+        }
+        v
+    };
+    let mut area = 0.0;
+    let mut acc = [0.0; 3];
+    let coeff: [Vec<f64>; 3] = std::array::from_fn(|ch| solution.leaf_coefficients(ch));
+    for (l, &i) in h.leaves.iter().enumerate() {
+        if !mine[h.keys[i as usize].patch as usize] {
+            continue;
+        }
+        area += sys.leaf_real_area[l];
+        let mom = &sys.leaf_real_moments[l * n..][..n];
+        for (ch, c) in coeff.iter().enumerate() {
+            acc[ch] += (0..n).map(|a| c[l * n + a] * mom[a]).sum::<f64>();
+        }
+    }
+    (area > 0.0).then(|| acc.map(|v| v / area))
 }
 
 #[cfg(test)]
@@ -310,7 +414,7 @@ mod tests {
             for i in 1..10 {
                 for j in 1..10 {
                     let (a, b) = (i as f64 / 10.0, j as f64 / 10.0);
-                    let st = invert_support(&s.map, s.point(a, b));
+                    let st = invert_support(&s.map, s.point(a, b), DVec2::ZERO);
                     assert!(
                         (st - DVec2::new(a, b)).length() < 1e-9,
                         "{:?} ({a},{b}) -> {st}",
@@ -318,6 +422,140 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// Rays aimed at real points of every support kind the solver builds (curved
+    /// trimmed patches, masked polygons with arcs, disks, rectangles) hit the support's
+    /// primitive there, and the hit maps back to the same `(s, t)`.
+    #[test]
+    fn hits_on_every_support_kind_map_back_to_their_parameters() {
+        use wavelux_scene::{
+            AnalyticPatch, AnalyticSurface, Loop, LoopEdge, Material, Placement, PolygonShape,
+            Region, Rgb, Scene, Shape, Sidedness, Surface,
+        };
+        let mut sc = Scene::new("kinds");
+        let m = sc.add_material(Material::lambertian("m", Rgb::grey(0.5), Rgb::BLACK));
+        let pl = |o: DVec3| Placement {
+            origin: o,
+            axis: DVec3::Z,
+            reference: DVec3::X,
+        };
+        let shapes = [
+            Shape::Patch(AnalyticPatch {
+                surface: AnalyticSurface::Sphere {
+                    placement: pl(DVec3::new(0.0, 0.0, 3.0)),
+                    radius: 0.7,
+                    azimuth: (0.0, std::f64::consts::TAU),
+                    latitude: (-1.2, 1.3),
+                },
+                trim: None,
+            }),
+            Shape::Patch(AnalyticPatch {
+                surface: AnalyticSurface::Cylinder {
+                    placement: pl(DVec3::new(3.0, 0.0, 0.0)),
+                    radius: 0.5,
+                    azimuth: (0.0, 5.0),
+                    height: (0.0, 1.0),
+                },
+                trim: Some(Region {
+                    outer: Loop::circle(DVec2::splat(0.5), 0.4),
+                    holes: vec![],
+                }),
+            }),
+            Shape::Polygon(PolygonShape {
+                frame: wavelux_scene::PlaneFrame::from_directions(
+                    DVec3::new(-3.0, 0.0, 0.0),
+                    DVec3::new(1.0, 0.2, 0.0),
+                    DVec3::Z,
+                )
+                .unwrap(),
+                outer: Loop {
+                    edges: vec![
+                        LoopEdge::Segment {
+                            start: DVec2::new(0.0, 0.0),
+                        },
+                        LoopEdge::Segment {
+                            start: DVec2::new(2.0, 0.0),
+                        },
+                        LoopEdge::Arc {
+                            start: DVec2::new(2.0, 1.0),
+                            center: DVec2::new(1.0, 1.0),
+                            ccw: true,
+                        },
+                        LoopEdge::Segment {
+                            start: DVec2::new(0.0, 1.0),
+                        },
+                    ],
+                },
+                holes: vec![Loop::circle(DVec2::new(1.0, 0.8), 0.2)],
+            }),
+            Shape::Polygon(PolygonShape {
+                frame: wavelux_scene::PlaneFrame::from_directions(
+                    DVec3::new(0.0, -3.0, 0.0),
+                    DVec3::X,
+                    DVec3::Y,
+                )
+                .unwrap(),
+                outer: Loop::circle(DVec2::ZERO, 0.6),
+                holes: vec![],
+            }),
+            Shape::parallelogram(DVec3::new(0.0, 3.0, 0.0), DVec3::X, DVec3::Z),
+        ];
+        for (k, shape) in shapes.into_iter().enumerate() {
+            sc.add_surface(Surface {
+                name: format!("s{k}"),
+                shape,
+                material: m,
+                sides: Sidedness::OneSided,
+            });
+        }
+        let set = wavelux_solver::build_patches(&sc).unwrap();
+        let mut kinds = std::collections::BTreeSet::new();
+        for p in &set.patches {
+            let sup = &p.support;
+            kinds.insert(format!(
+                "{}{}",
+                match sup.map {
+                    SupportMap::Mapped { .. } => "mapped",
+                    SupportMap::Disk { .. } => "disk",
+                    SupportMap::Triangle { .. } => "triangle",
+                    _ => "parallelogram",
+                },
+                if sup.mask.is_some() { "+mask" } else { "" }
+            ));
+            let prim = support_primitive(sup).unwrap();
+            let mut checked = 0;
+            for i in 1..12 {
+                for j in 1..12 {
+                    let (a, b) = (i as f64 / 12.0, j as f64 / 12.0);
+                    if !sup.is_real(a, b) {
+                        continue;
+                    }
+                    let x = sup.point(a, b);
+                    let n = sup.normal_at(a, b);
+                    let ray = wavelux_geometry::Ray::new(x + 1e-3 * n, -n).unwrap();
+                    let hit = prim.intersect(&ray, 0.0, 1.0).expect("hit at a real point");
+                    assert!((hit.point - x).length() < 1e-6);
+                    let st = invert_support(&sup.map, hit.point, hit.uv);
+                    assert!(
+                        (st - DVec2::new(a, b)).length() < 1e-6,
+                        "{:?} ({a},{b}) -> {st}",
+                        sup.map
+                    );
+                    checked += 1;
+                }
+            }
+            assert!(checked > 10, "{:?}", sup.map);
+        }
+        for k in [
+            "mapped",
+            "mapped+mask",
+            "parallelogram+mask",
+            "disk",
+            "parallelogram",
+        ] {
+            assert!(kinds.contains(k), "{k} missing from {kinds:?}");
         }
     }
 }

@@ -32,7 +32,7 @@ pub mod render;
 mod sampling;
 
 pub use camera::{View, auto_camera, scene_up};
-pub use field::{EmitterSample, RadiosityField, SolutionField, SurfacePoint};
+pub use field::{EmitterSample, RadiosityField, SolutionField, SurfacePoint, side_average};
 pub use image::{ErrorMetrics, Image, ToneMap, write_atomic};
 pub use reference::{PathTracer, ReferenceOptions, SurfaceEstimate};
 pub use render::{RenderOptions, RenderStats, render};
