@@ -17,7 +17,7 @@
 //! Bézier patches), with per-point normals from the parametrizations.
 //!
 //! - Per-surface averages: points uniform by area on one side of a surface (the front
-//!   side is the quantity `wavelux_solver::Solution::surface_average` reports), one
+//!   side is the quantity `crate::side_average` reports for a solution), one
 //!   walk each; the mean and its standard error `s/√N` per channel.
 //! - Per-point radiosity and images (pixel value `B/π`, radiance of a Lambertian
 //!   surface).

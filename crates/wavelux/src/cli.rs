@@ -47,7 +47,8 @@ pub enum Command {
 pub enum MethodArg {
     /// Wavelet radiosity with links (gathering; Ziegler ch. 2-4).
     Gather,
-    /// Linkless shooting on the Virtual Mesh (not available yet).
+    /// Linkless hierarchical shooting on the Virtual Mesh (VirtualMesh §5, Southwell
+    /// order: the patch with the most unshot power shoots next).
     Shoot,
     /// The Monte Carlo path tracer (reference / ground truth).
     Reference,
@@ -75,7 +76,8 @@ pub enum SolverArg {
     Jacobi,
     /// Hierarchical Gauss-Seidel.
     GaussSeidel,
-    /// Southwell relaxation (not available in the wavelet solver yet).
+    /// Southwell iteration: runs the linkless shooting solver (`--method shoot`),
+    /// which relaxes the patch with the largest unshot power at each step.
     Southwell,
     /// Restarted GMRES(30).
     Gmres,
@@ -112,24 +114,31 @@ pub struct SolveArgs {
     /// Global illumination method.
     #[arg(long, value_enum, default_value_t = MethodArg::Gather)]
     pub method: MethodArg,
-    /// Wavelet basis.
-    #[arg(long, value_enum, default_value_t = BasisArg::M3)]
-    pub basis: BasisArg,
+    /// Wavelet basis [default: m3 for gather, haar for shoot].
+    #[arg(long, value_enum)]
+    pub basis: Option<BasisArg>,
     /// Refinement threshold (see --oracle for its unit).
     #[arg(long, default_value_t = 1e-2)]
     pub eps: f64,
-    /// Deepest element level (0..=20).
-    #[arg(long, default_value_t = 2)]
-    pub max_level: u8,
+    /// Deepest element level (0..=20) [default: 2 for gather, 3 for shoot].
+    #[arg(long)]
+    pub max_level: Option<u8>,
     /// Smallest element area (scene units squared).
     #[arg(long, default_value_t = 0.0)]
     pub min_area: f64,
     /// Refinement oracle.
     #[arg(long, value_enum, default_value_t = OracleArg::Kernel)]
     pub oracle: OracleArg,
-    /// Linear solver.
-    #[arg(long, value_enum, default_value_t = SolverArg::Gmres)]
-    pub solver: SolverArg,
+    /// Linear solver of `gather` [default: gmres]; `southwell` selects `--method shoot`.
+    #[arg(long, value_enum)]
+    pub solver: Option<SolverArg>,
+    /// Shooting: stop once this fraction of the emitted power has been propagated,
+    /// `(E_i − E_r)/E_i` in (0, 1].
+    #[arg(long, default_value_t = 0.999)]
+    pub convergence: f64,
+    /// Shooting: at most this many shots.
+    #[arg(long, default_value_t = 10_000)]
+    pub max_shots: usize,
     /// Maximum iterations (sweeps) per channel.
     #[arg(long, default_value_t = 100)]
     pub max_iterations: usize,

@@ -8,10 +8,11 @@ use anyhow::{Context, bail};
 use glam::DVec3;
 use wavelux::render::{
     Image, PathTracer, ReferenceOptions, RenderOptions, SolutionField, ToneMap, View,
-    image::write_bytes_atomic,
+    image::write_bytes_atomic, side_average,
 };
 use wavelux::scene::{Scene, builtin};
-use wavelux::solver::{BasisKind, LinearMethod, Oracle, Solution, SolverConfig, Visibility};
+use wavelux::solver::shoot::ShootConfig;
+use wavelux::solver::{BasisKind, LinearMethod, Oracle, Side, Solution, SolverConfig, Visibility};
 
 use crate::cli::{BasisArg, CameraArgs, MethodArg, OracleArg, SolveArgs, SolverArg, VisibilityArg};
 use crate::progress;
@@ -67,38 +68,67 @@ pub fn list_scenes() {
     }
 }
 
-/// The solver configuration of the arguments; unsupported choices are errors.
-pub fn solver_config(a: &SolveArgs) -> anyhow::Result<SolverConfig> {
-    let basis = match a.basis {
+/// What `solve` runs.
+#[derive(Debug, Clone)]
+pub enum Plan {
+    /// Wavelet radiosity with links (gathering).
+    Gather(SolverConfig),
+    /// Linkless hierarchical shooting on the Virtual Mesh (Southwell order).
+    Shoot(ShootConfig),
+    /// The Monte Carlo path tracer.
+    Reference,
+}
+
+/// Default deepest level of the gathering solver.
+const GATHER_MAX_LEVEL: u8 = 2;
+/// Default deepest level of the shooting solver.
+const SHOOT_MAX_LEVEL: u8 = 3;
+
+fn basis_kind(b: BasisArg) -> BasisKind {
+    match b {
         BasisArg::Haar => BasisKind::Haar,
         BasisArg::M2 => BasisKind::Multiwavelet(2),
         BasisArg::M3 => BasisKind::Multiwavelet(3),
         BasisArg::Cdv => BasisKind::Cdv,
-    };
-    let linear_method = match a.solver {
+    }
+}
+
+fn visibility(v: VisibilityArg) -> Visibility {
+    match v {
+        VisibilityArg::Quadrature => Visibility::InQuadrature,
+        VisibilityArg::Fractional => Visibility::Fractional,
+        VisibilityArg::Off => Visibility::Off,
+    }
+}
+
+/// The plan of the arguments: `--method reference` → the path tracer; `--method shoot`
+/// or `--solver southwell` → the shooting solver (which *is* Southwell iteration: the
+/// patch with the largest unshot power is relaxed next); otherwise gathering with the
+/// chosen linear solver. Inconsistent or invalid choices are errors.
+pub fn plan(a: &SolveArgs) -> anyhow::Result<Plan> {
+    if a.method == MethodArg::Reference {
+        return Ok(Plan::Reference);
+    }
+    if a.method == MethodArg::Shoot {
+        return shoot_plan(a);
+    }
+    let linear_method = match a.solver.unwrap_or(SolverArg::Gmres) {
         SolverArg::Picard | SolverArg::Jacobi => LinearMethod::Picard,
         SolverArg::GaussSeidel => LinearMethod::GaussSeidel,
         SolverArg::Gmres => LinearMethod::Gmres { restart: 30 },
         SolverArg::Cgnr => LinearMethod::Cgnr,
-        SolverArg::Southwell => bail!(
-            "--solver southwell is not available yet for the wavelet solver \
-             (use picard, gauss-seidel, gmres or cgnr)"
-        ),
+        SolverArg::Southwell => return shoot_plan(a),
     };
     let cfg = SolverConfig {
-        basis,
+        basis: basis_kind(a.basis.unwrap_or(BasisArg::M3)),
         eps: a.eps,
-        max_level: a.max_level,
+        max_level: a.max_level.unwrap_or(GATHER_MAX_LEVEL),
         min_area: a.min_area,
         oracle: match a.oracle {
             OracleArg::Kernel => Oracle::KernelSmoothness,
             OracleArg::Brightness => Oracle::Brightness,
         },
-        visibility: match a.visibility {
-            VisibilityArg::Quadrature => Visibility::InQuadrature,
-            VisibilityArg::Fractional => Visibility::Fractional,
-            VisibilityArg::Off => Visibility::Off,
-        },
+        visibility: visibility(a.visibility),
         quad_points: a.quad,
         linear_method,
         max_iterations: a.max_iterations,
@@ -106,7 +136,34 @@ pub fn solver_config(a: &SolveArgs) -> anyhow::Result<SolverConfig> {
         ..SolverConfig::default()
     };
     cfg.validate().context("invalid solver option")?;
-    Ok(cfg)
+    Ok(Plan::Gather(cfg))
+}
+
+/// The shooting plan (`--method shoot` or `--solver southwell`).
+fn shoot_plan(a: &SolveArgs) -> anyhow::Result<Plan> {
+    if let Some(s) = a.solver.filter(|s| *s != SolverArg::Southwell) {
+        bail!(
+            "--solver {} applies to --method gather; shooting is Southwell iteration \
+             (omit --solver or use --solver southwell)",
+            name_of(s)
+        );
+    }
+    if a.oracle != OracleArg::Kernel {
+        bail!("--oracle applies to --method gather; the shooting oracle is relative to the shot");
+    }
+    let cfg = ShootConfig {
+        basis: basis_kind(a.basis.unwrap_or(BasisArg::Haar)),
+        eps: a.eps,
+        max_level: a.max_level.unwrap_or(SHOOT_MAX_LEVEL),
+        min_area: a.min_area,
+        quad_points: a.quad,
+        visibility: visibility(a.visibility),
+        convergence: a.convergence,
+        max_shots: a.max_shots,
+        ..ShootConfig::default()
+    };
+    cfg.validate().context("invalid shooting option")?;
+    Ok(Plan::Shoot(cfg))
 }
 
 fn name_of<T: std::fmt::Debug>(v: T) -> String {
@@ -209,12 +266,6 @@ fn secs(d: std::time::Duration) -> f64 {
 /// Runs `solve` (camera = None) or `render`.
 pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
     let t_start = Instant::now();
-    if a.method == MethodArg::Shoot {
-        bail!(
-            "--method shoot (linkless shooting on the Virtual Mesh) is not available yet; \
-             use --method gather or --method reference"
-        );
-    }
     let threads = match a.threads {
         Some(0) => bail!("--threads must be >= 1"),
         Some(n) => {
@@ -235,11 +286,7 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
     let show = progress::enabled(a.quiet);
     let (scene, stem) = load_scene(&a.scene)?;
     let t_load = t_start.elapsed();
-    let config = if a.method == MethodArg::Gather {
-        Some(solver_config(a)?)
-    } else {
-        None
-    };
+    let plan = plan(a)?;
     let view = if a.no_image {
         None
     } else {
@@ -259,12 +306,24 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
     let mut image: Option<Image> = None;
     let mut solution: Option<Solution> = None;
 
-    match config {
-        Some(cfg) => {
+    let solved = match &plan {
+        Plan::Gather(cfg) => {
             let sp = progress::spinner(show, "refining and solving");
-            let sol = wavelux::solver::solve(&scene, &cfg)
-                .with_context(|| format!("solving {:?} failed", a.scene))?;
+            let sol = wavelux::solver::solve(&scene, cfg);
             sp.finish_and_clear();
+            Some(sol)
+        }
+        Plan::Shoot(cfg) => {
+            let sp = progress::spinner(show, "shooting");
+            let sol = wavelux::solver::shoot::shoot(&scene, cfg);
+            sp.finish_and_clear();
+            Some(sol)
+        }
+        Plan::Reference => None,
+    };
+    match solved {
+        Some(sol) => {
+            let sol = sol.with_context(|| format!("solving {:?} failed", a.scene))?;
             let st = &sol.stats;
             stats.time_s.setup = secs(st.time_setup);
             stats.time_s.refine = secs(st.time_refine);
@@ -283,6 +342,11 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
                 .iter()
                 .map(|c| c.iterations.iter().map(|r| r.relative_residual).collect())
                 .collect();
+            if let Plan::Shoot(_) = plan {
+                stats.shots = Some(st.shots);
+                stats.shooting_surfaces = Some(st.shooting_surfaces);
+                stats.convergence_history = st.shot_convergence.clone();
+            }
             stats.energy = Some(report::Energy {
                 emitted: sol.energy.emitted,
                 absorbed: sol.energy.absorbed,
@@ -296,7 +360,7 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
                     area: scene.surfaces[i].shape.area(),
                     emission: e,
                     reflectance: rho,
-                    radiosity: sol.surface_average(i),
+                    radiosity: side_average(&sol, i, Side::Front).unwrap_or([0.0; 3]),
                     std_error: None,
                 });
             }
@@ -411,7 +475,7 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
             total_area: scene.total_area(),
             emitted_power: scene.emitted_power(),
         },
-        method: method_info(a, config.as_ref(), threads),
+        method: method_info(a, &plan, threads),
         surfaces,
         error_estimate,
         statistics: stats,
@@ -429,40 +493,54 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn method_info(a: &SolveArgs, cfg: Option<&SolverConfig>, threads: usize) -> report::MethodInfo {
-    match cfg {
-        Some(c) => report::MethodInfo {
+fn method_info(a: &SolveArgs, plan: &Plan, threads: usize) -> report::MethodInfo {
+    let none = report::MethodInfo {
+        name: "reference".into(),
+        basis: None,
+        eps: None,
+        oracle: None,
+        max_level: None,
+        min_area: None,
+        solver: None,
+        max_iterations: None,
+        tolerance: None,
+        visibility: None,
+        quad: None,
+        convergence: None,
+        max_shots: None,
+        samples: a.samples,
+        threads,
+        seed: a.seed,
+    };
+    match plan {
+        Plan::Gather(c) => report::MethodInfo {
             name: "gather".into(),
             basis: Some(c.basis.name()),
             eps: Some(c.eps),
             oracle: Some(name_of(a.oracle)),
             max_level: Some(c.max_level),
             min_area: Some(c.min_area),
-            solver: Some(name_of(a.solver)),
+            solver: Some(name_of(a.solver.unwrap_or(SolverArg::Gmres))),
             max_iterations: Some(c.max_iterations),
             tolerance: Some(c.tolerance),
             visibility: Some(name_of(a.visibility)),
             quad: Some(c.quad_points),
-            samples: a.samples,
-            threads,
-            seed: a.seed,
+            ..none
         },
-        None => report::MethodInfo {
-            name: "reference".into(),
-            basis: None,
-            eps: None,
-            oracle: None,
-            max_level: None,
-            min_area: None,
-            solver: None,
-            max_iterations: None,
-            tolerance: None,
-            visibility: None,
-            quad: None,
-            samples: a.samples,
-            threads,
-            seed: a.seed,
+        Plan::Shoot(c) => report::MethodInfo {
+            name: "shoot".into(),
+            basis: Some(c.basis.name()),
+            eps: Some(c.eps),
+            max_level: Some(c.max_level),
+            min_area: Some(c.min_area),
+            solver: Some("southwell".into()),
+            visibility: Some(name_of(a.visibility)),
+            quad: Some(c.quad_points),
+            convergence: Some(c.convergence),
+            max_shots: Some(c.max_shots),
+            ..none
         },
+        Plan::Reference => none,
     }
 }
 
@@ -520,6 +598,18 @@ fn print_summary(r: &report::Result, sol: Option<&Solution>) {
             m.quad.unwrap_or(0),
             m.quad.unwrap_or(0),
         ),
+        "shoot" => println!(
+            "  method      linkless shooting on the Virtual Mesh (Southwell), basis {}, eps {:e} (relative), max level {}, convergence {} ({} shots, {} shooting surfaces), {} visibility, {}x{} quadrature",
+            m.basis.as_deref().unwrap_or("?"),
+            m.eps.unwrap_or(0.0),
+            m.max_level.unwrap_or(0),
+            st.convergence_history.last().copied().unwrap_or(0.0),
+            st.shots.unwrap_or(0),
+            st.shooting_surfaces.unwrap_or(0),
+            m.visibility.as_deref().unwrap_or("?"),
+            m.quad.unwrap_or(0),
+            m.quad.unwrap_or(0),
+        ),
         _ => println!(
             "  method      Monte Carlo path tracer, {} samples per surface",
             m.samples
@@ -552,7 +642,7 @@ fn print_summary(r: &report::Result, sol: Option<&Solution>) {
                 100.0 * rel
             );
         }
-        None => println!("  error       not estimated (--samples 0 or curved surfaces)"),
+        None => println!("  error       not estimated (--samples 0)"),
     }
     if sol.is_some() {
         let res = st

@@ -46,9 +46,9 @@ pub struct SceneInfo {
 /// Method and knobs.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct MethodInfo {
-    /// `gather` or `reference`.
+    /// `gather`, `shoot` or `reference`.
     pub name: String,
-    /// Basis (`Haar`, `M2`, `M3`), null for the reference.
+    /// Basis (`Haar`, `M2`, `M3`, `CDV`), null for the reference.
     pub basis: Option<String>,
     /// Refinement threshold.
     pub eps: Option<f64>,
@@ -68,6 +68,12 @@ pub struct MethodInfo {
     pub visibility: Option<String>,
     /// Gauss points per axis.
     pub quad: Option<usize>,
+    /// Shooting: target convergence rate `(E_i − E_r)/E_i` (null otherwise).
+    #[serde(default)]
+    pub convergence: Option<f64>,
+    /// Shooting: shot limit (null otherwise).
+    #[serde(default)]
+    pub max_shots: Option<usize>,
     /// Monte Carlo samples per surface (reference or error check).
     pub samples: u64,
     /// Worker threads.
@@ -162,6 +168,16 @@ pub struct Statistics {
     pub residual_history: Vec<Vec<f64>>,
     /// Energy balance: emitted, absorbed, escaped and unshot power (W per channel).
     pub energy: Option<Energy>,
+    /// Shooting: number of shots (null otherwise).
+    #[serde(default)]
+    pub shots: Option<usize>,
+    /// Shooting: input primitives that shot at least once (VirtualMesh Table 1's
+    /// "# shooting surfaces"; null otherwise).
+    #[serde(default)]
+    pub shooting_surfaces: Option<usize>,
+    /// Shooting: convergence rate `(E_i − E_r)/E_i` after each shot (empty otherwise).
+    #[serde(default)]
+    pub convergence_history: Vec<f64>,
 }
 
 /// Energy accounting (W per channel).
