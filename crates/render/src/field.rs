@@ -358,34 +358,24 @@ impl RadiosityField for SolutionField<'_> {
 }
 
 /// Real-area average radiosity of one side of a scene surface over all its pieces
-/// (W/m², RGB): `Σ ∫_real B dA / Σ |real area|`, from the leaf coefficients and the
-/// leaves' real moments (`∫_real φ dA`, VirtualMesh §4.2), so the virtual points of a
-/// masked support do not count. `None` if the surface is out of range or has no
-/// piece lit on that side.
+/// (W/m², RGB): `Σ ∫_real B dA / Σ |real area|` from the solver's per-patch real
+/// integrals (`Solution::patch_real_integral`, VirtualMesh §4.2: the virtual points of
+/// a masked support do not count). The front side is `Solution::surface_average`; the
+/// back side of a two-sided surface (e.g. the inside of a closed curved surface) has
+/// no solver counterpart. `None` if the surface is out of range or has no piece lit on
+/// that side.
 pub fn side_average(solution: &Solution, surface: usize, side: Side) -> Option<[f64; 3]> {
-    let pieces = solution.by_surface.get(surface)?;
-    let sys = &solution.system;
-    let h = &sys.h;
-    let n = h.n;
-    let mine: Vec<bool> = {
-        let mut v = vec![false; solution.patches.len()];
-        for &p in pieces {
-            v[p] = solution.patches[p].side == side;
-        }
-        v
-    };
-    let mut area = 0.0;
     let mut acc = [0.0; 3];
-    let coeff: [Vec<f64>; 3] = std::array::from_fn(|ch| solution.leaf_coefficients(ch));
-    for (l, &i) in h.leaves.iter().enumerate() {
-        if !mine[h.keys[i as usize].patch as usize] {
+    let mut area = 0.0;
+    for &p in solution.by_surface.get(surface)? {
+        if solution.patches[p].side != side {
             continue;
         }
-        area += sys.leaf_real_area[l];
-        let mom = &sys.leaf_real_moments[l * n..][..n];
-        for (ch, c) in coeff.iter().enumerate() {
-            acc[ch] += (0..n).map(|a| c[l * n + a] * mom[a]).sum::<f64>();
+        let (int, a) = solution.patch_real_integral(p);
+        for c in 0..3 {
+            acc[c] += int[c];
         }
+        area += a;
     }
     (area > 0.0).then(|| acc.map(|v| v / area))
 }

@@ -8,11 +8,11 @@ use anyhow::{Context, bail};
 use glam::DVec3;
 use wavelux::render::{
     Image, PathTracer, ReferenceOptions, RenderOptions, SolutionField, ToneMap, View,
-    image::write_bytes_atomic, side_average,
+    image::write_bytes_atomic,
 };
 use wavelux::scene::{Scene, builtin};
 use wavelux::solver::shoot::ShootConfig;
-use wavelux::solver::{BasisKind, LinearMethod, Oracle, Side, Solution, SolverConfig, Visibility};
+use wavelux::solver::{BasisKind, LinearMethod, Oracle, Solution, SolverConfig, Visibility};
 
 use crate::cli::{BasisArg, CameraArgs, MethodArg, OracleArg, SolveArgs, SolverArg, VisibilityArg};
 use crate::progress;
@@ -360,7 +360,7 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
                     area: scene.surfaces[i].shape.area(),
                     emission: e,
                     reflectance: rho,
-                    radiosity: side_average(&sol, i, Side::Front).unwrap_or([0.0; 3]),
+                    radiosity: sol.surface_average(i),
                     std_error: None,
                 });
             }

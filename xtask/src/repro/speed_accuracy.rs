@@ -21,11 +21,11 @@ use crate::report::{Figure, Report, Row, Table, Tolerance};
 use crate::reproduce::Ctx;
 use wavelux::render::{
     Image, PathTracer, ReferenceOptions, RenderOptions, SolutionField, View, auto_camera, render,
-    scene_up, side_average,
+    scene_up,
 };
 use wavelux::scene::{Scene, builtin};
 use wavelux::solver::shoot::{ShootConfig, shoot};
-use wavelux::solver::{BasisKind, LinearMethod, Side, Solution, SolverConfig, SolverError, solve};
+use wavelux::solver::{BasisKind, LinearMethod, Solution, SolverConfig, SolverError, solve};
 
 /// One measured run.
 struct Point {
@@ -318,7 +318,7 @@ convergence {SHOOT_CONVERGENCE}"
             };
             let ts = t.elapsed().as_secs_f64();
             let b: Vec<[f64; 3]> = (0..scene.surfaces.len())
-                .map(|s| side_average(&sol, s, Side::Front).unwrap_or([0.0; 3]))
+                .map(|s| sol.surface_average(s))
                 .collect();
             let t2 = Instant::now();
             let image = SolutionField::new(&sol).and_then(|field| {
