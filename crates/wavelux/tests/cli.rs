@@ -705,7 +705,10 @@ shape = {{ type = "sphere", center = [0, 0, {h}], radius = {radius} }}
         / (a2 * a2 - a1 * a1);
     for (name, extra) in [
         ("gather", &["--max-level", "4", "--eps", "0.01"][..]),
-        ("shoot", &["--method", "shoot", "--eps", "0.01"][..]),
+        (
+            "shoot",
+            &["--method", "shoot", "--max-level", "3", "--eps", "0.01"][..],
+        ),
     ] {
         let v = solve_json("lamp.toml", extra, d, name)?;
         let b = radiosity(&v, "floor");
