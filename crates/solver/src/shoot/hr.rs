@@ -16,7 +16,9 @@
 //!    near-field rules and any support weighting are those of the gathering solver),
 //!    pulls them to `R` (the element's polynomial representation) and compares: the RMS
 //!    radiosity difference `ρ_R ‖H_cells − push(P_R H_cells)‖ / √|R|` is exactly the
-//!    size of the wavelet (detail) coefficients the representation at `R` drops. If it
+//!    size of the wavelet (detail) coefficients the representation at `R` drops (with
+//!    Haar one level is not enough: under a centred emitter the four children are
+//!    equal, so Haar looks two levels down by default). If it
 //!    exceeds `tol`, `R`'s children receive recursively (they exist from then on);
 //!    otherwise the pulled irradiance is deposited at `R`;
 //! 3. at the deepest level (or below `min_area`) the node's own transfer is deposited
@@ -198,7 +200,7 @@ impl Transfer<'_> {
             return;
         }
         // 2. Control cells at depth d, pulled level by level to r.
-        let d = self.p.control_depth.max(1) as u32;
+        let d = self.p.control_depth as u32;
         let side = 1u32 << d;
         let cells: Vec<NodeKey> = (0..side * side)
             .map(|i| NodeKey {

@@ -88,7 +88,7 @@ pub enum PushPull {
 }
 
 /// Configuration of [`shoot`]. `Default`: Haar, `eps = 1e-2`, 6 levels, 3 Gauss points
-/// per axis, control depth 1, 99 % convergence, at most 10 000 shots, precomputed
+/// per axis, automatic control depth, 99 % convergence, at most 10 000 shots, precomputed
 /// push/pull, visibility in quadrature.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ShootConfig {
@@ -114,7 +114,9 @@ pub struct ShootConfig {
     /// Visibility in the transfer blocks.
     pub visibility: Visibility,
     /// Control points of the oracle: the receiver is compared on the `2^d × 2^d`
-    /// control cells `control_depth = d` levels below it (`1..=3`).
+    /// control cells `control_depth = d` levels below it (`0..=3`; `0` = automatic:
+    /// 2 for Haar, whose single function per cell cannot show the variation inside
+    /// equal children, e.g. under a centred emitter; 1 for `M_k`, `k ≥ 2`).
     pub control_depth: u8,
     /// Target convergence rate `(E_i − E_r)/E_i` in `(0, 1]`: shooting stops once it is
     /// reached.
@@ -137,7 +139,7 @@ impl Default for ShootConfig {
             near_field: 1.0,
             max_split_depth: 3,
             visibility: Visibility::InQuadrature,
-            control_depth: 1,
+            control_depth: 0,
             convergence: 0.99,
             max_shots: 10_000,
             push_pull: PushPull::Precomputed,
@@ -162,8 +164,8 @@ impl ShootConfig {
         if !(self.eps.is_finite() && self.eps > 0.0) {
             return Err(bad("eps", self.eps, "must be finite and > 0"));
         }
-        if !(1..=3).contains(&self.control_depth) {
-            return Err(bad("control_depth", self.control_depth, "must be in 1..=3"));
+        if self.control_depth > 3 {
+            return Err(bad("control_depth", self.control_depth, "must be in 0..=3"));
         }
         if !(self.convergence.is_finite() && self.convergence > 0.0 && self.convergence <= 1.0) {
             return Err(bad("convergence", self.convergence, "must be in (0, 1]"));
@@ -292,7 +294,11 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
         tol: config.eps * b_ref,
         max_level: config.max_level,
         min_area: config.min_area,
-        control_depth: config.control_depth,
+        control_depth: match config.control_depth {
+            0 if prep.basis.k() == 1 => 2,
+            0 => 1,
+            d => d,
+        },
     };
     let e_i: f64 = emitted.iter().sum();
     // Curved supports with a concave island see themselves (VirtualMesh §5.3).

@@ -4,7 +4,7 @@
 
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, TAU};
-use wavelux_geometry::formfactor::area_form_factor;
+use wavelux_geometry::formfactor::{area_form_factor, point_to_polygon};
 use wavelux_scene::builtin::{cornell_box, unoccluded, white_furnace};
 
 use wavelux_scene::shape::PlaneFrame;
@@ -168,6 +168,32 @@ fn unoccluded_matches_closed_form_and_gathering() {
         );
         // Exact area average ρ E A1 F(1→0) / A0 with A0 = 1.
         assert!((a - 0.4 * e * aff).abs() <= 3e-3 * a);
+        // Pointwise: the relative L1 error against `ρ E F(p → S1)` is that of the
+        // gathering solver at the same depth (Haar needs the two-level control cells:
+        // its four children are equal under the centred emitter).
+        let l1 = |sol: &Solution| {
+            let m = 32;
+            let (mut num, mut den) = (0.0, 0.0);
+            for j in 0..m {
+                for i in 0..m {
+                    let (u, v) = ((i as f64 + 0.5) / m as f64, (j as f64 + 0.5) / m as f64);
+                    let exact = 0.4
+                        * e
+                        * point_to_polygon(DVec3::new(u, v, 0.0), DVec3::Z, &s1)
+                            .unwrap()
+                            .abs();
+                    num += (sol.radiosity(0, u, v)[0] - exact).abs();
+                    den += exact;
+                }
+            }
+            num / den
+        };
+        let (es, eg) = (l1(&full), l1(&gather));
+        assert!(
+            es <= 1.3 * eg,
+            "{}: L1 error shoot {es} gather {eg}",
+            basis.name()
+        );
     }
 }
 
@@ -210,7 +236,9 @@ fn agrees_with_gathering() {
     let cases = [
         (small_scene(), BasisKind::Haar, 3u8, 1e-2, 1e-2),
         (small_scene(), BasisKind::Multiwavelet(2), 2, 1e-2, 2e-2),
-        (cornell_box(), BasisKind::Haar, 1, 2e-2, 3e-2),
+        // Level 1 is coarse: the solvers' quadratures differ (a shot deposits the
+        // finer control cells' transfer, a link its own block).
+        (cornell_box(), BasisKind::Haar, 1, 2e-2, 4e-2),
     ];
     for (scene, basis, level, eps, tol) in cases {
         let s = shoot(
@@ -507,7 +535,7 @@ fn rejects_bad_config() {
         (
             "control_depth",
             ShootConfig {
-                control_depth: 0,
+                control_depth: 4,
                 ..d
             },
         ),
