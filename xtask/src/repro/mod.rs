@@ -11,7 +11,11 @@ use crate::reproduce::Ctx;
 
 mod speed_accuracy;
 mod standard;
+mod virtual_mesh_common;
 mod virtual_mesh_fig4;
+mod virtual_mesh_table1;
+mod virtual_mesh_table2;
+mod virtual_mesh_table3;
 mod ziegler_4_1;
 mod ziegler_4_2;
 
@@ -59,6 +63,27 @@ pub fn all() -> Vec<Reproduction> {
             seed_file: "004_cb5b08859768bf36.txt",
             title: "Picard vs GMRES vs CGNR on the box scenes (Haar, m = 5)",
             run: ziegler_4_2::run,
+        },
+        Reproduction {
+            id: "virtual-mesh-table1",
+            source: "VirtualMesh §6.1, Table 1 and Fig. 11",
+            seed_file: "001_663a8814abd90f9c.txt",
+            title: "Complex polygons through the virtual mesh vs triangulated (architecture, Haar, 99 %)",
+            run: virtual_mesh_table1::run,
+        },
+        Reproduction {
+            id: "virtual-mesh-table2",
+            source: "VirtualMesh §6.2, Table 2",
+            seed_file: "001_663a8814abd90f9c.txt",
+            title: "Quadric teapot vs its 1,392-primitive tessellation (M1, M2, M3, 99 %)",
+            run: virtual_mesh_table2::run,
+        },
+        Reproduction {
+            id: "virtual-mesh-table3",
+            source: "VirtualMesh §6.3, Table 3",
+            seed_file: "001_663a8814abd90f9c.txt",
+            title: "Constant vs natural-coordinate Jacobian push/pull on the chess set (M2, 90 %)",
+            run: virtual_mesh_table3::run,
         },
         Reproduction {
             id: "speed-accuracy",

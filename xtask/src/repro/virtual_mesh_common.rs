@@ -1,0 +1,237 @@
+//! Shared machinery of the VirtualMesh §6 table reproductions (Tables 1–3): one timed
+//! run of the linkless shooting solver (VirtualMesh §5, Algorithm 1) on a scene, the
+//! numbers the paper tabulates, and the paper-vs-ours ratio rows.
+//!
+//! The paper's tables compare two variants of one scene (virtual mesh vs tessellated,
+//! constant vs natural Jacobian) on a 633 MHz Pentium III; absolute times and memory
+//! cannot transfer to our machine and our scenes, so each table is reproduced as the
+//! *ratios* between the two variants measured side by side in one process, and the
+//! absolute values are shown for context.
+
+use std::time::Instant;
+
+use crate::plot::{Axis, Series, Style, xy_plot};
+use crate::report::{Figure, Row, Tolerance};
+use crate::reproduce::Ctx;
+use wavelux::scene::Scene;
+use wavelux::solver::shoot::{ShootConfig, shoot};
+
+/// What one solver run measured.
+#[derive(Debug, Clone)]
+pub struct Measured {
+    /// Input primitives of the scene (mesh elements; every other surface counts one):
+    /// VirtualMesh's "# input prim.".
+    pub input_primitives: usize,
+    /// Leaf elements at the end: VirtualMesh's "# final meshes".
+    pub leaves: usize,
+    /// Wall time of the whole solve (supports, accelerator, shooting), seconds.
+    pub seconds: f64,
+    /// Solver memory (`Statistics::bytes`: element trees, hierarchy, vectors), bytes.
+    pub bytes: usize,
+    /// Input primitives that shot at least once: VirtualMesh's "# shooting surfaces".
+    pub shooting_surfaces: usize,
+    /// Shots.
+    pub shots: usize,
+    /// Convergence rate `(E_i − E_r)/E_i` reached.
+    pub convergence: f64,
+    /// Convergence rate after each shot.
+    pub curve: Vec<f64>,
+    /// Mean radiosity (W/m², RGB mean) of every surface of the scene, in scene order.
+    pub surface_mean: Vec<f64>,
+    /// Area of every surface (m²), in scene order.
+    pub surface_area: Vec<f64>,
+}
+
+/// Runs the shooting solver on `scene` with `config` and measures it; the time includes
+/// the preparation (supports, accelerator, basis). `shoot` maps curved patches by their
+/// equal-area parametrization for `PushPull::Precomputed` and by their natural
+/// coordinates for `PushPull::Natural` (Table 3).
+pub fn measure(scene: &Scene, config: &ShootConfig) -> anyhow::Result<Measured> {
+    let t0 = Instant::now();
+    let sol = shoot(scene, config)?;
+    let seconds = t0.elapsed().as_secs_f64();
+    let st = &sol.stats;
+    eprintln!(
+        "  {}: {} basis, {} shots, {} leaves, {seconds:.1} s",
+        scene.name,
+        config.basis.name(),
+        st.shots,
+        st.leaves
+    );
+    let surface_mean = (0..scene.surfaces.len())
+        .map(|i| {
+            let b = sol.surface_average(i);
+            (b[0] + b[1] + b[2]) / 3.0
+        })
+        .collect();
+    Ok(Measured {
+        input_primitives: wavelux::scene::primitive_count(scene),
+        leaves: st.leaves,
+        seconds,
+        bytes: st.bytes,
+        shooting_surfaces: st.shooting_surfaces,
+        shots: st.shots,
+        convergence: st.shot_convergence.last().copied().unwrap_or(0.0),
+        curve: st.shot_convergence.clone(),
+        surface_mean,
+        surface_area: scene.surfaces.iter().map(|s| s.shape.area()).collect(),
+    })
+}
+
+/// Area-weighted relative L1 difference of the per-surface mean radiosities of two
+/// runs on scenes with the same surfaces (same order): `Σ A_i |a_i − b_i| / Σ A_i |b_i|`.
+pub fn surface_difference(a: &Measured, b: &Measured) -> f64 {
+    let mut num = 0.0;
+    let mut den = 0.0;
+    for ((x, y), w) in a
+        .surface_mean
+        .iter()
+        .zip(&b.surface_mean)
+        .zip(&b.surface_area)
+    {
+        num += w * (x - y).abs();
+        den += w * y.abs();
+    }
+    if den > 0.0 { num / den } else { f64::NAN }
+}
+
+/// The quantities of a VirtualMesh §6 table row, in the paper's order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Quantity {
+    /// "# input prim."
+    Input,
+    /// "# final meshes"
+    Leaves,
+    /// "computation time (s)"
+    Time,
+    /// "memory usage (Mb)"
+    Memory,
+    /// "# shooting surfaces"
+    Shooting,
+}
+
+impl Quantity {
+    /// Label used in rows.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Input => "input primitives",
+            Self::Leaves => "final meshes (leaf elements)",
+            Self::Time => "computation time",
+            Self::Memory => "memory",
+            Self::Shooting => "shooting surfaces",
+        }
+    }
+
+    /// Our value and its unit.
+    pub fn of(self, m: &Measured) -> (f64, &'static str) {
+        match self {
+            Self::Input => (m.input_primitives as f64, ""),
+            Self::Leaves => (m.leaves as f64, ""),
+            Self::Time => (m.seconds, "s"),
+            Self::Memory => (m.bytes as f64 / 1e6, "MB"),
+            Self::Shooting => (m.shooting_surfaces as f64, ""),
+        }
+    }
+}
+
+/// Rows comparing `ours_a / ours_b` with `paper_a / paper_b` for one quantity
+/// (`Tolerance::Factor(factor)`), plus the two absolute values of ours as context
+/// rows (the paper's absolute values attached, `Tolerance::Info`).
+pub fn ratio_rows(
+    q: Quantity,
+    (label_a, a, paper_a): (&str, &Measured, Option<f64>),
+    (label_b, b, paper_b): (&str, &Measured, Option<f64>),
+    factor: f64,
+    note: Option<&str>,
+) -> Vec<Row> {
+    let (va, unit) = q.of(a);
+    let (vb, _) = q.of(b);
+    let mut rows = vec![
+        Row::new(
+            format!("{}, {label_a}", q.label()),
+            paper_a,
+            va,
+            unit,
+            Tolerance::Info,
+        ),
+        Row::new(
+            format!("{}, {label_b}", q.label()),
+            paper_b,
+            vb,
+            unit,
+            Tolerance::Info,
+        ),
+    ];
+    let paper_ratio = match (paper_a, paper_b) {
+        (Some(x), Some(y)) if y != 0.0 => Some(x / y),
+        _ => None,
+    };
+    let tol = if paper_ratio.is_some() {
+        Tolerance::Factor(factor)
+    } else {
+        Tolerance::Info
+    };
+    let mut r = Row::new(
+        format!("{} ratio {label_a} / {label_b}", q.label()),
+        paper_ratio,
+        va / vb,
+        "",
+        tol,
+    );
+    if let Some(n) = note {
+        r = r.note(n);
+    }
+    rows.push(r);
+    rows
+}
+
+/// Plots convergence rate against shot number for labelled runs (the analogue of
+/// VirtualMesh Fig. 11, which plots it against time).
+pub fn convergence_figure(
+    ctx: &Ctx,
+    file: &str,
+    title: &str,
+    runs: &[(&str, &Measured)],
+) -> anyhow::Result<Figure> {
+    let styles = [Style::Line, Style::LinePoints];
+    let series: Vec<Series> = runs
+        .iter()
+        .enumerate()
+        .map(|(k, (label, m))| {
+            let pts = m
+                .curve
+                .iter()
+                .enumerate()
+                .map(|(i, c)| ((i + 1) as f64, (1.0 - c).max(1e-6)))
+                .collect();
+            Series::new(*label, pts, styles[k % styles.len()])
+        })
+        .collect();
+    let path = ctx.figure_path(file);
+    xy_plot(
+        &path,
+        title,
+        &Axis::log("shots"),
+        &Axis::log("1 − convergence rate (E_r / E_i)"),
+        &series,
+    )?;
+    Ok(Figure {
+        path,
+        caption: format!(
+            "{title}: power left to shoot over emitted power after each shot (log–log)."
+        ),
+    })
+}
+
+/// Formats a count with thousands separators.
+pub fn count(n: usize) -> String {
+    let s = n.to_string();
+    let mut out = String::new();
+    for (i, c) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i).is_multiple_of(3) {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
