@@ -1193,16 +1193,15 @@ pub fn solve(prep: &Prepared) -> Result<Solution, SolverError> {
             let maxc = |v: [f64; 3]| v.iter().fold(0.0f64, |a, &b| a.max(b));
             match &prev {
                 Some(s) => {
-                    // Largest cell average of the previous solution over the region.
+                    // Largest of 3×3 point values of the previous solution over the
+                    // region.
                     let mut best = 0.0f64;
-                    let n = (1.0 / r.h).ceil().max(1.0) as usize;
                     for iy in 0..3 {
                         for ix in 0..3 {
                             let (u, v) = (
                                 r.s0 + r.h * (ix as f64 + 0.5) / 3.0,
                                 r.t0 + r.h * (iy as f64 + 0.5) / 3.0,
                             );
-                            let _ = n;
                             best = best.max(maxc(s.radiosity(p, u, v)));
                         }
                     }

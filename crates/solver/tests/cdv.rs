@@ -210,3 +210,41 @@ fn rejects_invalid_cdv_config() {
         ));
     }
 }
+
+/// The refine–solve loop (Ziegler Alg. 2.3.4) with the brightness oracle: later stages
+/// re-refine with the previous stage's radiosity and start from its projected
+/// coefficients. On "Unoccluded" the emitter's radiosity is its emission (ρ₁ = 0), so
+/// the brightness oracle is `ρ₀ E = 40` times the kernel oracle and the last stage
+/// must reproduce the direct kernel-oracle solve at `ε/40`.
+#[test]
+fn multigrid_with_brightness_oracle() {
+    use wavelux_solver::{Multigrid, Oracle};
+    let scene = unoccluded();
+    let direct = solve(&scene, &cdv(1e-3, 4)).unwrap();
+    let mg = solve(
+        &scene,
+        &SolverConfig {
+            oracle: Oracle::Brightness,
+            multigrid: Some(Multigrid {
+                stages: 2,
+                factor: 10.0,
+            }),
+            // W/m²: ρ₀ E = 40 times the kernel threshold of `direct`.
+            ..cdv(4e-2, 4)
+        },
+    )
+    .unwrap();
+    assert_eq!(mg.stats.stages, 2);
+    assert!(
+        mg.stats.links < 4352,
+        "not fully refined: {}",
+        mg.stats.links
+    );
+    assert_eq!(mg.stats.links, direct.stats.links);
+    let (a, b) = (direct.surface_average(0)[0], mg.surface_average(0)[0]);
+    println!(
+        "direct {a}, multigrid {b}, links {} vs {}",
+        direct.stats.links, mg.stats.links
+    );
+    assert!((a - b).abs() < 1e-2 * a, "{a} vs {b}");
+}
