@@ -112,6 +112,8 @@ pub struct Support {
     pub param: Option<Arc<dyn Parametrization>>,
     /// `+1` for the front side, `−1` for a flipped (back) side.
     orientation: f64,
+    /// Area of the real surface (see [`Support::real_area`]).
+    real: f64,
 }
 
 impl PartialEq for Support {
@@ -145,6 +147,7 @@ impl Support {
             mask: None,
             param: None,
             orientation: 1.0,
+            real: area,
         }
     }
 
@@ -207,6 +210,7 @@ impl Support {
             mask: None,
             param: Some(param.clone()),
             orientation: 1.0,
+            real: 0.0,
         };
         s.area = if param.is_equal_area() {
             param.area() * det
@@ -231,12 +235,20 @@ impl Support {
             )));
         }
         s.normal = s.normal_at(0.5, 0.5);
+        s.real = s.area;
         Ok(s)
     }
 
-    /// The same support with a trim mask (a virtual support, VirtualMesh §4).
+    /// The same support with a trim mask (a virtual support, VirtualMesh §4). For a
+    /// curved map with a varying Jacobian the real area is `∫_R J` over the mask's
+    /// region `R` (Green's theorem on its boundary); else
+    /// `area ×` the real parameter fraction.
     #[must_use]
     pub fn with_mask(mut self, mask: Mask) -> Self {
+        self.real = match (&self.param, self.is_equal_area()) {
+            (Some(p), false) => jacobian_integral(p.as_ref(), mask.region()),
+            _ => self.area * mask.total_fraction(),
+        };
         self.mask = Some(Arc::new(mask));
         self
     }
@@ -412,9 +424,12 @@ impl Support {
         }
     }
 
-    /// Area of the real surface (`area ×` real fraction of the whole support).
+    /// Area of the real surface: `area ×` the real fraction of the whole support, or
+    /// for a masked curved support with a varying Jacobian the Jacobian's integral over
+    /// the real region (Gauss rules on the region's boundary, relative error ≲ 1e-12
+    /// for smooth maps).
     pub fn real_area(&self) -> f64 {
-        self.area * self.mask.as_ref().map_or(1.0, |m| m.total_fraction())
+        self.real
     }
 
     /// The nearest real point to `(s, t)`, as support parameters (`(s, t)` itself
@@ -698,6 +713,152 @@ fn trim_parallelogram(region: &TrimRegion) -> Result<Parallelogram2, SolverError
     })
 }
 
+/// Largest chordal deviation (in the unit parameter square) of a remapped trim loop
+/// from the exact image of the original loop (see [`remap_region`]).
+const REMAP_TOL: f64 = 1e-7;
+/// Deepest bisection of one trim edge in [`remap_region`] (`2^24` pieces at most).
+const REMAP_DEPTH: u32 = 24;
+
+/// The point of `to`'s square with the same 3-D position as `from(uv)`: `to`'s
+/// inverse, or among the equivalent parameters (periodic shifts by ±1, a pole's free
+/// coordinate) the one nearest to `uv`. `None` where `to` has no inverse.
+fn remap_point(uv: DVec2, from: &dyn Parametrization, to: &dyn Parametrization) -> Option<DVec2> {
+    let p = from.position(uv);
+    let res = to.inverse(p)?;
+    if !res.is_finite() {
+        return None;
+    }
+    let b = to.bounds();
+    let tol = 1e-9 * (b.max - b.min).length().max(1e-300);
+    let err = |c: DVec2| (to.position(c) - p).length();
+    let ok = err(res).max(tol);
+    let mut best = res;
+    let mut cands = vec![DVec2::new(uv.x, res.y), DVec2::new(res.x, uv.y)];
+    for kx in -1..=1 {
+        for ky in -1..=1 {
+            cands.push(res + DVec2::new(kx as f64, ky as f64));
+        }
+    }
+    for c in cands {
+        if (c - uv).length() < (best - uv).length() && err(c) <= ok {
+            best = c;
+        }
+    }
+    Some(best)
+}
+
+/// The image of `region` (in `from`'s unit square) in `to`'s unit square, for two
+/// maps of the same surface: every edge (segment or arc) is mapped point-wise by
+/// [`remap_point`] and replaced by a polyline, bisected until each piece's midpoint
+/// lies within [`REMAP_TOL`] of its chord (at least 4 pieces per edge). `None` if a
+/// point has no preimage, or the map reverses a loop's orientation.
+fn remap_region(
+    region: &TrimRegion,
+    from: &dyn Parametrization,
+    to: &dyn Parametrization,
+) -> Option<TrimRegion> {
+    fn bisect(
+        f: &dyn Fn(f64) -> Option<DVec2>,
+        (s0, p0): (f64, DVec2),
+        (s1, p1): (f64, DVec2),
+        depth: u32,
+        out: &mut Vec<DVec2>,
+    ) -> Option<()> {
+        let sm = 0.5 * (s0 + s1);
+        let pm = f(sm)?;
+        let d = p1 - p0;
+        let len = d.length();
+        let dev = if len > 0.0 {
+            (pm - p0).perp_dot(d).abs() / len
+        } else {
+            (pm - p0).length()
+        };
+        if dev > REMAP_TOL && depth < REMAP_DEPTH {
+            bisect(f, (s0, p0), (sm, pm), depth + 1, out)?;
+            bisect(f, (sm, pm), (s1, p1), depth + 1, out)?;
+        } else {
+            out.push(p1);
+        }
+        Some(())
+    }
+    let mut loops = Vec::with_capacity(region.loops.len());
+    for l in &region.loops {
+        let mut pts: Vec<DVec2> = Vec::new();
+        for e in &l.edges {
+            let f = |s: f64| remap_point(e.point(s), from, to);
+            let mut prev = (0.0, f(0.0)?);
+            for k in 1..=4 {
+                let s = k as f64 / 4.0;
+                let next = (s, f(s)?);
+                bisect(&f, prev, next, 0, &mut pts)?;
+                prev = next;
+            }
+        }
+        pts.dedup_by(|a, b| (*a - *b).length() <= 1e-15);
+        while pts.len() > 1 && (pts[0] - pts[pts.len() - 1]).length() <= 1e-15 {
+            pts.pop();
+        }
+        if pts.len() < 3 {
+            return None;
+        }
+        let edges: Vec<Edge2> = (0..pts.len())
+            .map(|k| Edge2::Segment {
+                a: pts[k],
+                b: pts[(k + 1) % pts.len()],
+            })
+            .collect();
+        let mapped = wavelux_geometry::TrimLoop::new(edges).ok()?;
+        if (mapped.signed_area() > 0.0) != (l.signed_area() > 0.0) {
+            return None;
+        }
+        loops.push(mapped);
+    }
+    TrimRegion::new(loops).ok()
+}
+
+/// `∫_R J(u, v) du dv` of a map's Jacobian over a region of its unit square, by
+/// Green's theorem `∮ F dv`, `F(u, v) = ∫_0^u J(x, v) dx` (16-point Gauss), with an
+/// 8-point Gauss rule on pieces of each boundary edge no longer than 1/16.
+fn jacobian_integral(param: &dyn Parametrization, region: &TrimRegion) -> f64 {
+    let (Ok(inner), Ok(outer)) = (GaussLegendre::new(16), GaussLegendre::new(8)) else {
+        return f64::NAN;
+    };
+    let (xi, wi) = inner.unit();
+    let (xo, wo) = outer.unit();
+    let f = |p: DVec2| -> f64 {
+        p.x * xi
+            .iter()
+            .zip(&wi)
+            .map(|(&x, &w)| w * param.jacobian(DVec2::new(x * p.x, p.y)))
+            .sum::<f64>()
+    };
+    let mut total = 0.0;
+    for e in region.loops.iter().flat_map(|l| l.edges.iter()) {
+        let len = match *e {
+            Edge2::Segment { a, b } => (b - a).length(),
+            Edge2::Arc { radius, sweep, .. } => radius * sweep.abs(),
+        };
+        let n = (len * 16.0).ceil().max(1.0) as usize;
+        for k in 0..n {
+            let (s0, h) = (k as f64 / n as f64, 1.0 / n as f64);
+            for (&x, &w) in xo.iter().zip(&wo) {
+                let s = s0 + h * x;
+                let dv = match *e {
+                    Edge2::Segment { a, b } => b.y - a.y,
+                    Edge2::Arc {
+                        radius,
+                        start,
+                        sweep,
+                        ..
+                    } => radius * sweep * (start + s * sweep).cos(),
+                };
+                total += w * h * f(e.point(s)) * dv;
+            }
+        }
+    }
+    total
+}
+
 /// The support of an analytic patch: Ψ composed with the parallelogram enclosing its
 /// trim (identity when untrimmed), masked by the trim.
 fn patch_support(
@@ -716,14 +877,18 @@ fn patch_support(
     match &p.trim {
         None => Support::mapped(psi, DVec2::ZERO, DVec2::X, DVec2::Y),
         Some(r) => {
+            let mut region = region_of(scene, i, &r.outer, &r.holes)?;
             if !psi.is_equal_area() {
-                return Err(unsupported(
-                    scene,
-                    i,
-                    "trimmed patch with a natural-coordinate map (trims live in the equal-area square)",
-                ));
+                // Trims live in the equal-area square: carry them over to Ψ's square.
+                let ea = with_kind(psi.clone(), ParamKind::EqualArea);
+                region = remap_region(&region, ea.as_ref(), psi.as_ref()).ok_or_else(|| {
+                    unsupported(
+                        scene,
+                        i,
+                        "trim loop with a point that has no natural-coordinate preimage",
+                    )
+                })?;
             }
-            let region = region_of(scene, i, &r.outer, &r.holes)?;
             let par = trim_parallelogram(&region)?;
             let mask = Mask::new(region, par.origin, par.e1, par.e2)?;
             Ok(Support::mapped(psi, par.origin, par.e1, par.e2)?.with_mask(mask))
@@ -952,11 +1117,14 @@ pub fn build_patches(scene: &Scene) -> Result<PatchSet, SolverError> {
 /// other polygon → its minimal enclosing parallelogram masked by the polygon; an
 /// analytic patch → its `wavelux-param` map (`kind`) composed with the parallelogram
 /// enclosing its trim, masked by the trim; a Bézier patch → its map. `kind` only
-/// changes curved maps (planar maps are equal-area either way); trimmed patches need
-/// [`ParamKind::EqualArea`] (their trims are given in the equal-area square).
+/// changes curved maps (planar maps are equal-area either way); the trims of a patch
+/// are given in the equal-area square and, for a natural map with a varying
+/// Jacobian, carried over to its square as polylines (chordal deviation ≤ 1e-7, see
+/// `remap_region`).
 ///
 /// # Errors
-/// [`SolverError::UnsupportedSurface`] for a trimmed patch with `ParamKind::Natural`,
+/// [`SolverError::UnsupportedSurface`] for a trimmed patch whose trim has a point
+/// without a natural-coordinate preimage (with `ParamKind::Natural`),
 /// [`SolverError::InvalidScene`] for bad materials or degenerate pieces.
 pub fn build_patches_with(scene: &Scene, kind: ParamKind) -> Result<PatchSet, SolverError> {
     let mut patches = Vec::new();
