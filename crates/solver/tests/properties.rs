@@ -341,9 +341,51 @@ fn rejects_bad_input() {
         material: m,
         sides: Sidedness::OneSided,
     });
-    let err = wavelux_solver::build_patches_with(&trimmed, wavelux_solver::ParamKind::Natural)
-        .unwrap_err();
-    assert!(matches!(err, SolverError::UnsupportedSurface { .. }));
+    // Trims are carried over to natural coordinates with the same real area ...
+    let ea = wavelux_solver::build_patches(&trimmed).unwrap();
+    let nat =
+        wavelux_solver::build_patches_with(&trimmed, wavelux_solver::ParamKind::Natural).unwrap();
+    let (a, b) = (
+        ea.patches[0].support.real_area(),
+        nat.patches[0].support.real_area(),
+    );
+    assert!((a - b).abs() < 1e-6 * a, "{a} {b}");
+    // ... but a trim through a cone's apex has no natural preimage: a typed error.
+    let mut apex = Scene::new("apex");
+    let m = apex.add_material(Material::lambertian("m", Rgb::grey(0.5), Rgb::BLACK));
+    apex.add_surface(Surface {
+        name: "cone".into(),
+        shape: Shape::Patch(wavelux_scene::AnalyticPatch {
+            surface: wavelux_scene::AnalyticSurface::Cone {
+                placement: wavelux_scene::Placement {
+                    origin: DVec3::ZERO,
+                    axis: DVec3::Z,
+                    reference: DVec3::X,
+                },
+                radius: 1.0,
+                height: 1.0,
+                azimuth: (0.0, 3.0),
+                generator: (0.0, 1.0),
+            },
+            trim: Some(wavelux_scene::Region {
+                outer: wavelux_scene::Loop::polygon(&[
+                    glam::DVec2::ZERO,
+                    glam::DVec2::new(1.0, 0.5),
+                    glam::DVec2::new(0.5, 1.0),
+                ]),
+                holes: vec![],
+            }),
+        }),
+        material: m,
+        sides: Sidedness::OneSided,
+    });
+    assert!(wavelux_solver::build_patches(&apex).is_ok());
+    let err =
+        wavelux_solver::build_patches_with(&apex, wavelux_solver::ParamKind::Natural).unwrap_err();
+    assert!(
+        matches!(err, SolverError::UnsupportedSurface { .. }),
+        "{err}"
+    );
     // Keep the low-level API honest: an empty link list compiles to roots only.
     let h = Hierarchy::compile(1, 2, &[]);
     assert_eq!(h.node_count(), 2);
