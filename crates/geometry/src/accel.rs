@@ -134,7 +134,10 @@ impl Frame {
         }
         let start = (ray.origin + ray.dir * t0 - self.centre) * self.scale;
         let o = start - ray.dir * TRAVERSAL_BACKOFF;
-        let d = ray.dir;
+        // `+ 0.0` turns negative zeros into positive ones: obvhs's slab test takes
+        // `1/d`, and `−∞` from `−0.0` culled every box (rays along `−X` missed
+        // everything).
+        let d = ray.dir + DVec3::ZERO;
         let t_max = self.param(t1, t0) * (1.0 + 1e-5) + self.pad;
         Some((
             FRay::new(

@@ -436,3 +436,47 @@ proptest::proptest! {
         proptest::prop_assert!(n_occ > 20, "scene should occlude some segments: {}", n_occ);
     }
 }
+
+/// Axis-aligned rays whose other components are negative zero (e.g. `-DVec3::X`, as
+/// a camera looking down an axis produces) hit exactly what brute force hits.
+#[test]
+fn negative_zero_directions_hit_like_brute_force() {
+    let wall = |o: DVec3, u: DVec3, v: DVec3| {
+        Primitive::Parallelogram(Parallelogram::new(o, u, v).unwrap())
+    };
+    let prims = vec![
+        wall(DVec3::new(-2.0, -1.0, -1.0), DVec3::Y * 2.0, DVec3::Z * 2.0),
+        wall(DVec3::new(2.0, -1.0, -1.0), DVec3::Z * 2.0, DVec3::Y * 2.0),
+        wall(DVec3::new(-1.0, -2.0, -1.0), DVec3::Z * 2.0, DVec3::X * 2.0),
+        wall(DVec3::new(-1.0, 2.0, -1.0), DVec3::X * 2.0, DVec3::Z * 2.0),
+        wall(DVec3::new(-1.0, -1.0, -2.0), DVec3::X * 2.0, DVec3::Y * 2.0),
+        wall(DVec3::new(-1.0, -1.0, 2.0), DVec3::Y * 2.0, DVec3::X * 2.0),
+    ];
+    let accel = Accel::build(prims).unwrap();
+    for dir in [
+        -DVec3::X,
+        -DVec3::Y,
+        -DVec3::Z,
+        DVec3::X,
+        DVec3::Y,
+        DVec3::Z,
+        DVec3::new(-0.0, -0.0, -1.0),
+        DVec3::new(1.0, -0.0, 0.0),
+    ] {
+        for origin in [DVec3::ZERO, DVec3::new(0.3, -0.2, 0.1)] {
+            let ray = Ray::new(origin, dir).unwrap();
+            let fast = accel.closest_hit(&ray, 0.0, f64::INFINITY);
+            let slow = accel.closest_hit_brute(&ray, 0.0, f64::INFINITY);
+            assert!(slow.is_some(), "brute force must hit a wall along {dir:?}");
+            assert_eq!(
+                fast.map(|h| h.prim),
+                slow.map(|h| h.prim),
+                "direction {dir:?} from {origin:?}"
+            );
+            assert!(
+                accel.occluded(origin, origin + 5.0 * dir, [None, None]),
+                "occlusion along {dir:?}"
+            );
+        }
+    }
+}
