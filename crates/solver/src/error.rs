@@ -54,3 +54,15 @@ pub enum SolverError {
         len: usize,
     },
 }
+
+impl From<wavelux_support::SupportError> for SolverError {
+    fn from(e: wavelux_support::SupportError) -> Self {
+        use wavelux_support::SupportError as S;
+        match e {
+            S::UnsupportedSurface { surface, kind } => Self::UnsupportedSurface { surface, kind },
+            S::InvalidScene(m) => Self::InvalidScene(m),
+            S::Dependency { what, message } => Self::Dependency { what, message },
+            other => Self::InvalidScene(other.to_string()),
+        }
+    }
+}

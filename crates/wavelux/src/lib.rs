@@ -11,6 +11,7 @@ pub use wavelux_quadrature as quadrature;
 pub use wavelux_render as render;
 pub use wavelux_scene as scene;
 pub use wavelux_solver as solver;
+pub use wavelux_support as support;
 
 /// The member crates, their one-line job, in dependency order (lowest first).
 pub const CRATES: &[(&str, &str)] = &[
@@ -37,6 +38,10 @@ pub const CRATES: &[(&str, &str)] = &[
     (
         "wavelux-scene",
         "scene model, glTF and native loaders, built-in scenes",
+    ),
+    (
+        "wavelux-support",
+        "unit-square supports of surfaces and exact trim masks (Virtual Mesh)",
     ),
     (
         "wavelux-solver",
