@@ -1,0 +1,260 @@
+//! `solve` and `render`: load the scene, plan the chosen method, run it (solve, check
+//! the error, render), write the EXR, PNG and JSON, print a summary.
+//!
+//! Each global-illumination method is one module implementing [`Method`]: `gather`
+//! (wavelet radiosity with links), `shoot` (linkless shooting) and `reference` (the
+//! path tracer); `wavelet` holds what gathering and shooting share (statistics, surface
+//! averages, the error check and the image of a wavelet [`Solution`]). Adding a method
+//! is a new module, a `MethodArg` variant and one arm in [`plan`].
+
+mod error_check;
+mod gather;
+mod output;
+mod reference;
+mod scenes;
+mod shoot;
+mod summary;
+mod view;
+mod wavelet;
+
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, bail};
+use wavelux::render::{Image, ReferenceOptions, View};
+use wavelux::scene::Scene;
+use wavelux::solver::Solution;
+
+pub use scenes::{list_scenes, load_scene};
+
+use crate::cli::{CameraArgs, MethodArg, SolveArgs, SolverArg};
+use crate::progress;
+use crate::report;
+
+/// One global-illumination method of `solve`, planned from the arguments.
+pub trait Method {
+    /// The JSON's `method` object: `base` (the common fields, every knob null) with
+    /// this method's name and knobs filled in.
+    fn info(&self, base: report::MethodInfo) -> report::MethodInfo;
+    /// Solves `job.scene`, checks the error and renders `job.view` when there is one;
+    /// fills the method's entries of `stats`.
+    fn run(&self, job: &Job<'_>, stats: &mut report::Statistics) -> anyhow::Result<Outcome>;
+    /// The summary's `method` line (after `  method      `).
+    fn describe(&self, r: &report::Result) -> String;
+}
+
+/// What a method runs on.
+pub struct Job<'a> {
+    /// The arguments.
+    pub args: &'a SolveArgs,
+    /// The validated scene.
+    pub scene: &'a Scene,
+    /// The image's view (`None` with `--no-image`).
+    pub view: Option<&'a View>,
+    /// Whether progress bars are shown.
+    pub show_progress: bool,
+    /// Options of every Monte Carlo estimate (seeded by `--seed`).
+    pub reference: ReferenceOptions,
+}
+
+/// What a method produced.
+pub struct Outcome {
+    /// One result per scene surface, in scene order.
+    pub surfaces: Vec<report::SurfaceResult>,
+    /// The error estimate against a path-traced check (`None` when skipped).
+    pub error_estimate: Option<report::ErrorEstimate>,
+    /// The image (`None` with `--no-image`).
+    pub image: Option<Image>,
+    /// The wavelet solution, for `--gltf` and `--lightmaps` (`None` for methods
+    /// without one).
+    pub solution: Option<Solution>,
+}
+
+/// The method of the arguments: `--method reference` → the path tracer; `--method
+/// shoot` or `--solver southwell` → the shooting solver (which *is* Southwell
+/// iteration: the patch with the largest unshot power is relaxed next); otherwise
+/// gathering with the chosen linear solver. Inconsistent or invalid choices are errors.
+pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
+    match a.method {
+        MethodArg::Reference => reference::plan(a),
+        MethodArg::Shoot => shoot::plan(a),
+        MethodArg::Gather if a.solver == Some(SolverArg::Southwell) => shoot::plan(a),
+        MethodArg::Gather => gather::plan(a),
+    }
+}
+
+/// Runs `solve` (camera = None) or `render`.
+pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
+    let t_start = Instant::now();
+    let threads = thread_pool(a.threads)?;
+    check_image_options(a)?;
+    let (scene, stem) = load_scene(&a.scene)?;
+    let t_load = t_start.elapsed();
+    let method = plan(a)?;
+    let view = if a.no_image {
+        None
+    } else {
+        Some(view::choose_view(&scene, a, cam)?)
+    };
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create the output directory {:?}", a.out))?;
+
+    let mut stats = report::Statistics::default();
+    stats.time_s.load = secs(t_load);
+    let job = Job {
+        args: a,
+        scene: &scene,
+        view: view.as_ref(),
+        show_progress: progress::enabled(a.quiet),
+        reference: ReferenceOptions {
+            seed: a.seed,
+            ..ReferenceOptions::default()
+        },
+    };
+    let outcome = method.run(&job, &mut stats)?;
+
+    let t_write = Instant::now();
+    let json_path = output::json_path(a, &stem);
+    let outputs = output::write_files(a, &scene, &stem, &outcome, &json_path)?;
+    stats.time_s.write = secs(t_write.elapsed());
+    stats.time_s.total = secs(t_start.elapsed());
+    stats.peak_memory_bytes = peak_memory();
+    let result = report::Result {
+        schema: report::SCHEMA.into(),
+        version: report::VERSION,
+        scene: report::SceneInfo {
+            source: a.scene.clone(),
+            name: scene.name.clone(),
+            surfaces: scene.surfaces.len(),
+            total_area: scene.total_area(),
+            emitted_power: scene.emitted_power(),
+        },
+        method: method.info(base_info(a, threads)),
+        surfaces: outcome.surfaces,
+        error_estimate: outcome.error_estimate,
+        statistics: stats,
+        outputs,
+    };
+    output::write_json(&json_path, &result)?;
+    if !a.quiet {
+        summary::print_summary(&result, method.as_ref(), outcome.solution.is_some());
+    }
+    Ok(())
+}
+
+/// Sets up the global thread pool (`--threads`); returns the number of threads.
+fn thread_pool(threads: Option<usize>) -> anyhow::Result<usize> {
+    match threads {
+        Some(0) => bail!("--threads must be >= 1"),
+        Some(n) => {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build_global()
+                .context("cannot set up the thread pool")?;
+            Ok(n)
+        }
+        None => Ok(rayon::current_num_threads()),
+    }
+}
+
+/// Checks the image size and sampling options.
+fn check_image_options(a: &SolveArgs) -> anyhow::Result<()> {
+    if a.width == 0 || a.height == 0 || a.width > 16384 || a.height > 16384 {
+        bail!("--width and --height must be in 1..=16384");
+    }
+    if !(1..=64).contains(&a.spp) {
+        bail!("--spp must be in 1..=64");
+    }
+    Ok(())
+}
+
+/// The JSON `method` object with the common fields set and every knob null.
+fn base_info(a: &SolveArgs, threads: usize) -> report::MethodInfo {
+    report::MethodInfo {
+        name: String::new(),
+        basis: None,
+        eps: None,
+        oracle: None,
+        max_level: None,
+        min_area: None,
+        solver: None,
+        max_iterations: None,
+        tolerance: None,
+        visibility: None,
+        quad: None,
+        convergence: None,
+        max_shots: None,
+        samples: a.samples,
+        threads,
+        seed: a.seed,
+    }
+}
+
+/// The result of surface `i` with its front-side material (texture means applied).
+fn surface_result(
+    scene: &Scene,
+    i: usize,
+    radiosity: [f64; 3],
+    std_error: Option<[f64; 3]>,
+) -> report::SurfaceResult {
+    let (reflectance, emission) = front_material(scene, i);
+    report::SurfaceResult {
+        name: scene.surfaces[i].name.clone(),
+        area: scene.surfaces[i].shape.area(),
+        emission,
+        reflectance,
+        radiosity,
+        std_error,
+    }
+}
+
+/// Front-side reflectance and emission of a surface (texture means applied).
+fn front_material(scene: &Scene, i: usize) -> ([f64; 3], [f64; 3]) {
+    let m = &scene.materials[scene.surfaces[i].material];
+    let mut rho = m.reflectance.0;
+    let mut e = m.emission.0;
+    if let Some(t) = m
+        .reflectance_texture
+        .and_then(|t| scene.textures.get(t.texture))
+    {
+        let t = t.mean().0;
+        rho = std::array::from_fn(|c| rho[c] * t[c]);
+    }
+    if let Some(t) = m
+        .emission_texture
+        .and_then(|t| scene.textures.get(t.texture))
+    {
+        let t = t.mean().0;
+        e = std::array::from_fn(|c| e[c] * t[c]);
+    }
+    (rho, e)
+}
+
+/// A value's `Debug` name in kebab-case (`GaussSeidel` → `gauss-seidel`).
+fn name_of<T: std::fmt::Debug>(v: T) -> String {
+    let s = format!("{v:?}");
+    let mut out = String::new();
+    for (i, c) in s.chars().enumerate() {
+        if c.is_ascii_uppercase() {
+            if i > 0 {
+                out.push('-');
+            }
+            out.push(c.to_ascii_lowercase());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// Peak resident memory of the process (Linux `VmHWM`), bytes.
+fn peak_memory() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// Seconds of a duration.
+fn secs(d: Duration) -> f64 {
+    d.as_secs_f64()
+}
