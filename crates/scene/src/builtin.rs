@@ -15,7 +15,7 @@ use crate::material::{Material, Rgb};
 use crate::scene::{Scene, Sidedness, Surface};
 use crate::shape::{Loop, PlaneFrame, PolygonShape, Shape, TriangleMesh};
 
-fn one_sided(scene: &mut Scene, name: &str, shape: Shape, material: usize) {
+pub(crate) fn one_sided(scene: &mut Scene, name: &str, shape: Shape, material: usize) {
     scene.add_surface(Surface {
         name: name.into(),
         shape,
@@ -44,7 +44,7 @@ fn quad_mesh(quads: &[[[f64; 3]; 4]], scale: f64) -> Shape {
 
 /// An axis-aligned rectangle with a rectangular hole, as a polygon in the plane
 /// `frame`; coordinates are 2D frame coordinates.
-fn rect_with_hole(frame: PlaneFrame, outer: [DVec2; 2], hole: [DVec2; 2]) -> Shape {
+pub(crate) fn rect_with_hole(frame: PlaneFrame, outer: [DVec2; 2], hole: [DVec2; 2]) -> Shape {
     let rect =
         |[a, b]: [DVec2; 2]| Loop::polygon(&[a, DVec2::new(b.x, a.y), b, DVec2::new(a.x, b.y)]);
     Shape::Polygon(PolygonShape {
@@ -611,6 +611,7 @@ pub const BUILTIN_NAMES: &[&str] = &[
     "architecture",
     "quadric-teapot",
     "chess-set",
+    "office",
 ];
 
 /// A built-in scene by name (see [`BUILTIN_NAMES`]); `white-furnace` uses `E = 1`,
@@ -627,6 +628,7 @@ pub fn builtin(name: &str) -> Option<Scene> {
         "ziegler-unoccluded" => Some(unoccluded()),
         "ziegler-occluded" => Some(occluded()),
         "white-furnace" => white_furnace(1.0, 0.5).ok(),
+        "office" => Some(crate::office::office()),
         _ => {
             let rest = name.strip_prefix("ziegler-box-")?;
             let mut parts = rest.split('-');

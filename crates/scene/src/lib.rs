@@ -14,7 +14,9 @@
 //!   the VirtualMesh §6 scenes by name;
 //! - [`virtual_mesh`]: VirtualMesh §6's test scenes — architecture (complex polygons),
 //!   quadric teapot, chess set;
-//! - [`tessellated`]: their tessellated baselines (VirtualMesh §6.1–6.2).
+//! - [`tessellated`]: their tessellated baselines (VirtualMesh §6.1–6.2);
+//! - [`office`]: a furnished office of 343 surfaces lit by one tube in a louvred
+//!   luminaire (the larger benchmark of the speed–accuracy report).
 //!
 //! # Radiometric conventions
 //!
@@ -39,6 +41,7 @@ pub mod gltf_load;
 pub mod material;
 pub mod medium;
 pub mod native;
+pub mod office;
 pub mod scene;
 pub mod shape;
 pub mod tessellated;
