@@ -16,7 +16,10 @@
 //!   `E = π L`; `doubleSided` gives [`Sidedness::TwoSided`] with the same material on
 //!   both sides, else [`Sidedness::OneSided`]; metallic/roughness, normal and
 //!   occlusion maps have no meaning for Lambertian radiosity and are ignored;
-//! - cameras (perspective and orthographic) with their node's world transform.
+//! - cameras (perspective and orthographic) with their node's world transform;
+//! - `KHR_lights_punctual` point and spot lights at their node's world position and
+//!   `−z` axis, `color × intensity` read as W/sr (see [`crate::light`]); directional
+//!   lights are skipped with a warning and `range` is ignored.
 //!
 //! Buffers are read with the glTF crate; accessors are decoded here with explicit,
 //! checked bounds (sparse and quantised accessors are rejected as unsupported), so
@@ -47,7 +50,7 @@ pub struct GltfOptions {
 }
 
 /// Supported `extensionsRequired` entries.
-const SUPPORTED_REQUIRED: &[&str] = &["KHR_materials_emissive_strength"];
+const SUPPORTED_REQUIRED: &[&str] = &["KHR_materials_emissive_strength", "KHR_lights_punctual"];
 
 /// Loads a `.gltf` or `.glb` file; external buffers and images are resolved relative
 /// to the file's directory.
@@ -242,10 +245,76 @@ impl<'a> Loader<'a> {
             if let Some(cam) = node.camera() {
                 self.camera(node, &cam, &world)?;
             }
+            if let Some(light) = node.light() {
+                self.light(node, &light, &world)?;
+            }
             for c in node.children().collect::<Vec<_>>().into_iter().rev() {
                 stack.push((c.index(), world));
             }
         }
+        Ok(())
+    }
+
+    fn light(
+        &mut self,
+        node: &gltf::Node<'_>,
+        light: &gltf::khr_lights_punctual::Light<'_>,
+        world: &DMat4,
+    ) -> Result<(), SceneError> {
+        use gltf::khr_lights_punctual::Kind;
+        let element = format!("light {} (node {})", light.index(), node.index());
+        let name = node
+            .name()
+            .or(light.name())
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("light{}", light.index()));
+        let intensity = Rgb(light
+            .color()
+            .map(|c| f64::from(c) * f64::from(light.intensity())));
+        let position = world.transform_point3(DVec3::ZERO);
+        let l = match light.kind() {
+            Kind::Directional => {
+                self.warn(
+                    element,
+                    WarningKind::Ignored {
+                        what: "directional light (only point and spot lights are modelled)".into(),
+                    },
+                );
+                return Ok(());
+            }
+            Kind::Point => crate::light::Light::point(name, position, intensity),
+            Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => {
+                let dir = world.transform_vector3(-DVec3::Z);
+                crate::light::Light::spot(
+                    name,
+                    position,
+                    dir,
+                    f64::from(inner_cone_angle),
+                    f64::from(outer_cone_angle),
+                    intensity,
+                )
+            }
+        };
+        l.validate(self.file).map_err(|e| match e {
+            SceneError::Malformed { file, what, .. } => SceneError::Malformed {
+                file,
+                element: element.clone(),
+                what,
+            },
+            SceneError::NonFinite {
+                file, what, value, ..
+            } => SceneError::NonFinite {
+                file,
+                element: element.clone(),
+                what,
+                value,
+            },
+            other => other,
+        })?;
+        self.scene.lights.push(l);
         Ok(())
     }
 

@@ -6,6 +6,7 @@
 //!   Ward parameters (Glossy §6) and directional emitters;
 //! - [`shape`]: triangles, parallelograms, triangle meshes with exact parallelogram
 //!   merging, complex polygons with arcs and holes (VirtualMesh §3.2), Bézier patches;
+//! - [`light`]: punctual point and spot lights (glTF `KHR_lights_punctual` falloff);
 //! - [`medium`]: voxel grids of source, opacity and albedo (GlobalCube §2.1, §3.1);
 //! - [`gltf_load`]: glTF 2.0 (`.gltf`, `.glb`) loader;
 //! - [`native`]: the native TOML format (documented in `docs/scene-format.md`);
@@ -38,6 +39,7 @@ pub mod builtin;
 pub mod camera;
 pub mod error;
 pub mod gltf_load;
+pub mod light;
 pub mod material;
 pub mod medium;
 pub mod native;
@@ -53,6 +55,7 @@ pub use analytic::{AnalyticPatch, AnalyticSurface, Placement, Region};
 pub use camera::{Camera, Projection};
 pub use error::{SceneError, Warning, WarningKind};
 pub use gltf_load::{GltfOptions, load_gltf, load_gltf_slice};
+pub use light::{Light, LightKind};
 pub use material::{
     EmissionProfile, Material, ReflectancePolicy, Rgb, Texture, TextureRef, WardParams,
 };

@@ -50,6 +50,8 @@ struct FileSpec {
     medium: Vec<MediumSpec>,
     #[serde(default)]
     camera: Vec<CameraSpec>,
+    #[serde(default)]
+    light: Vec<LightSpec>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -270,6 +272,75 @@ struct CameraSpec {
     up: Option<[f64; 3]>,
     yfov_deg: f64,
     aspect: Option<f64>,
+}
+
+/// A punctual light (`[[light]]`): `type = "point"` or `"spot"`; intensity in W/sr.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LightSpec {
+    name: String,
+    #[serde(rename = "type")]
+    kind: String,
+    position: [f64; 3],
+    intensity: ColorSpec,
+    /// Spot axis (required for spots).
+    direction: Option<[f64; 3]>,
+    /// Spot outer cone half-angle in degrees, `(0, 180]` (required for spots).
+    outer_deg: Option<f64>,
+    /// Spot inner cone half-angle in degrees (default: `outer_deg`, a hard edge).
+    inner_deg: Option<f64>,
+}
+
+fn light_from_spec(l: &LightSpec, file: &str) -> Result<crate::light::Light, SceneError> {
+    use crate::light::Light;
+    let element = format!("light {:?}", l.name);
+    let position = DVec3::from_array(l.position);
+    let light = match l.kind.as_str() {
+        "point" => {
+            if l.direction.is_some() || l.outer_deg.is_some() || l.inner_deg.is_some() {
+                return Err(SceneError::Malformed {
+                    file: file.into(),
+                    element,
+                    what: "a point light takes no direction or cone angles".into(),
+                });
+            }
+            Light::point(l.name.clone(), position, l.intensity.rgb())
+        }
+        "spot" => {
+            let (Some(dir), Some(outer)) = (l.direction, l.outer_deg) else {
+                return Err(SceneError::Malformed {
+                    file: file.into(),
+                    element,
+                    what: "a spot light needs `direction` and `outer_deg`".into(),
+                });
+            };
+            let dir = DVec3::from_array(dir);
+            let mut light = Light::spot(
+                l.name.clone(),
+                position,
+                dir,
+                l.inner_deg.unwrap_or(outer).to_radians(),
+                outer.to_radians(),
+                l.intensity.rgb(),
+            );
+            // Keep a non-finite direction visible to `validate`.
+            if let crate::light::LightKind::Spot { direction, .. } = &mut light.kind
+                && !dir.is_finite()
+            {
+                *direction = dir;
+            }
+            light
+        }
+        other => {
+            return Err(SceneError::Malformed {
+                file: file.into(),
+                element,
+                what: format!("unknown light type {other:?} (expected \"point\" or \"spot\")"),
+            });
+        }
+    };
+    light.validate(file)?;
+    Ok(light)
 }
 
 // ------------------------------------------------------------------------------------
@@ -762,6 +833,12 @@ fn parse_inner(
         scene.cameras.push(cam);
     }
 
+    // Lights.
+    for l in &spec.light {
+        let light = light_from_spec(l, file)?;
+        scene.lights.push(light);
+    }
+
     scene.validate(file)?;
     Ok(scene)
 }
@@ -782,5 +859,10 @@ fn transform_scene(scene: &mut Scene, m: &DMat4) {
     }
     for cam in &mut scene.cameras {
         cam.position = m.transform_point3(cam.position);
+    }
+    for light in &mut scene.lights {
+        if let Some(l) = light.transformed(m) {
+            *light = l;
+        }
     }
 }

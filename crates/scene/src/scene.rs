@@ -16,6 +16,7 @@ use std::collections::{BTreeMap, HashSet};
 
 use crate::camera::Camera;
 use crate::error::{SceneError, Warning};
+use crate::light::Light;
 use crate::material::{Material, Texture};
 use crate::medium::Medium;
 use crate::shape::Shape;
@@ -78,6 +79,8 @@ pub struct Scene {
     pub media: Vec<Medium>,
     /// Cameras.
     pub cameras: Vec<Camera>,
+    /// Punctual lights (point and spot; [`crate::light`]).
+    pub lights: Vec<Light>,
     /// Method defaults (`basis = "multiwavelet"`, `epsilon = 1e-4`, ...), free-form;
     /// the solvers document the keys they read.
     pub defaults: BTreeMap<String, DefaultValue>,
@@ -189,6 +192,7 @@ impl Scene {
             self.media.push(m);
         }
         self.cameras.extend(other.cameras);
+        self.lights.extend(other.lights);
         for (k, v) in other.defaults {
             self.defaults.entry(k).or_insert(v);
         }
@@ -278,6 +282,9 @@ impl Scene {
                 });
             }
             m.validate(file)?;
+        }
+        for l in &self.lights {
+            l.validate(file)?;
         }
         Ok(())
     }

@@ -1,0 +1,220 @@
+//! The knobs of the meshless precomputation and relighting, with the seed's defaults
+//! (Meshless §2.3, §3.2, §4.2) and the choices marked "ours".
+
+use serde::{Deserialize, Serialize};
+
+use crate::MeshlessError;
+
+/// Configuration of [`crate::Precomputed::build`] and the relighter.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MeshlessConfig {
+    /// Receiver levels `L_r` (§4.2: 6), `1..=16`.
+    pub receiver_levels: usize,
+    /// Sender levels `L_s`, the first levels of the same basis (§4.2: 3), `1..=L_r`.
+    pub sender_levels: usize,
+    /// Poisson-disk spacing `R_coarse` of level 0 as a fraction of the scene's
+    /// bounding-box diagonal (ours: scale-free); `R_l = R_coarse / 2^l`.
+    pub r_coarse: f64,
+    /// Support factor `C` of level 0, `r = C·R` (§2.3: 1.5).
+    pub c_coarse: f64,
+    /// Support factor `C` of the finest level (§2.3: 2.5); linear in between.
+    pub c_fine: f64,
+    /// Consecutive dart-throwing failures that close a level (§2.3: 2000).
+    pub max_failures: usize,
+    /// Bounces of an importance particle (§2.3: 30).
+    pub particle_bounces: usize,
+    /// Leading bounces whose hits are not deposited as candidates (§2.3: 3).
+    pub skip_bounces: usize,
+    /// Rays of the free-distance test (ours: 32; 0 disables the test).
+    pub free_rays: usize,
+    /// Candidates whose harmonic-mean free distance over rays of length `3R` is below
+    /// `free_reject · R` are rejected (§2.3: 1/6).
+    pub free_reject: f64,
+    /// Gather rays `N_g` per receiver in eq. (16) (ours: 256).
+    pub gather_rays: usize,
+    /// Link threshold `ε` (§4.2: 0.025; dimensionless), `>= 0`.
+    pub epsilon: f64,
+    /// Bounces `B` of the Neumann series `S = Σ_{b ≤ B} S_b` (§4.2: 4), `>= 1`.
+    pub bounces: usize,
+    /// Seed of every random stream (particles, gather strata).
+    pub seed: u64,
+    /// Viewpoint of point placement (default: the scene's first camera, else the
+    /// centre of its bounding box).
+    pub viewpoint: Option<[f64; 3]>,
+    /// Largest number of points on all levels (an error, not an allocation failure,
+    /// when reached).
+    pub max_points: usize,
+    /// Largest number of links in `T` or `S`.
+    pub max_links: usize,
+    /// At runtime, senders with `|e_j| <= skip · max |e|` are skipped (ours: 1e-3).
+    pub skip: f64,
+}
+
+impl Default for MeshlessConfig {
+    fn default() -> Self {
+        Self {
+            receiver_levels: 6,
+            sender_levels: 3,
+            r_coarse: 0.06,
+            c_coarse: 1.5,
+            c_fine: 2.5,
+            max_failures: 2000,
+            particle_bounces: 30,
+            skip_bounces: 3,
+            free_rays: 32,
+            free_reject: 1.0 / 6.0,
+            gather_rays: 256,
+            epsilon: 0.025,
+            bounces: 4,
+            seed: 0,
+            viewpoint: None,
+            max_points: 4_000_000,
+            max_links: 200_000_000,
+            skip: 1e-3,
+        }
+    }
+}
+
+fn check_finite(what: &'static str, v: f64) -> Result<(), MeshlessError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(MeshlessError::config(what, format!("{v} is not finite")))
+    }
+}
+
+impl MeshlessConfig {
+    /// Checks every range documented on the fields.
+    ///
+    /// # Errors
+    /// [`MeshlessError::Config`] naming the first bad field.
+    pub fn validate(&self) -> Result<(), MeshlessError> {
+        let bad = |what: &'static str, reason: String| Err(MeshlessError::config(what, reason));
+        if !(1..=crate::MAX_LEVELS).contains(&self.receiver_levels) {
+            return bad(
+                "receiver_levels",
+                format!("{} not in 1..={}", self.receiver_levels, crate::MAX_LEVELS),
+            );
+        }
+        if self.sender_levels == 0 || self.sender_levels > self.receiver_levels {
+            return bad(
+                "sender_levels",
+                format!(
+                    "{} not in 1..=receiver_levels ({})",
+                    self.sender_levels, self.receiver_levels
+                ),
+            );
+        }
+        for (what, v) in [
+            ("r_coarse", self.r_coarse),
+            ("c_coarse", self.c_coarse),
+            ("c_fine", self.c_fine),
+            ("free_reject", self.free_reject),
+            ("epsilon", self.epsilon),
+            ("skip", self.skip),
+        ] {
+            check_finite(what, v)?;
+        }
+        if !(self.r_coarse > 0.0) {
+            return bad("r_coarse", format!("{} must be > 0", self.r_coarse));
+        }
+        if !(self.c_coarse >= 1.0 && self.c_fine >= 1.0) {
+            return bad(
+                "c_coarse/c_fine",
+                format!(
+                    "support factors {} and {} must be >= 1 (supports must cover the Poisson disks)",
+                    self.c_coarse, self.c_fine
+                ),
+            );
+        }
+        if self.epsilon < 0.0 {
+            return bad("epsilon", format!("{} must be >= 0", self.epsilon));
+        }
+        if !(0.0..1.0).contains(&self.skip) {
+            return bad("skip", format!("{} not in [0, 1)", self.skip));
+        }
+        if self.free_reject < 0.0 {
+            return bad("free_reject", format!("{} must be >= 0", self.free_reject));
+        }
+        if self.gather_rays == 0 {
+            return bad("gather_rays", "N_g must be >= 1".into());
+        }
+        if self.bounces == 0 {
+            return bad("bounces", "B must be >= 1".into());
+        }
+        if self.max_failures == 0 {
+            return bad("max_failures", "must be >= 1".into());
+        }
+        if self.particle_bounces == 0 || self.skip_bounces >= self.particle_bounces {
+            return bad(
+                "particle_bounces/skip_bounces",
+                format!(
+                    "{} bounces with {} skipped deposit nothing",
+                    self.particle_bounces, self.skip_bounces
+                ),
+            );
+        }
+        if let Some(v) = self.viewpoint
+            && !v.iter().all(|c| c.is_finite())
+        {
+            return Err(MeshlessError::Viewpoint {
+                viewpoint: v,
+                reason: "not finite".into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Support factor `C_l` of level `l` (linear from `c_coarse` to `c_fine`; `c_coarse`
+    /// for a single level).
+    pub fn support_factor(&self, l: usize) -> f64 {
+        let levels = self.receiver_levels;
+        if levels <= 1 {
+            return self.c_coarse;
+        }
+        let t = l as f64 / (levels - 1) as f64;
+        self.c_coarse + (self.c_fine - self.c_coarse) * t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_configs_are_typed_errors() {
+        let cases: Vec<(&str, MeshlessConfig)> = vec![
+            ("receiver_levels", MeshlessConfig { receiver_levels: 0, ..Default::default() }),
+            ("receiver_levels", MeshlessConfig { receiver_levels: 17, ..Default::default() }),
+            ("sender_levels", MeshlessConfig { sender_levels: 7, ..Default::default() }),
+            ("r_coarse", MeshlessConfig { r_coarse: 0.0, ..Default::default() }),
+            ("r_coarse", MeshlessConfig { r_coarse: -1.0, ..Default::default() }),
+            ("r_coarse", MeshlessConfig { r_coarse: f64::NAN, ..Default::default() }),
+            ("epsilon", MeshlessConfig { epsilon: -1e-3, ..Default::default() }),
+            ("epsilon", MeshlessConfig { epsilon: f64::NAN, ..Default::default() }),
+            ("gather_rays", MeshlessConfig { gather_rays: 0, ..Default::default() }),
+            ("bounces", MeshlessConfig { bounces: 0, ..Default::default() }),
+            ("skip", MeshlessConfig { skip: 1.0, ..Default::default() }),
+        ];
+        for (what, c) in cases {
+            match c.validate() {
+                Err(MeshlessError::Config { what: w, .. }) => assert_eq!(w, what),
+                other => panic!("{what}: {other:?}"),
+            }
+        }
+        let c = MeshlessConfig {
+            viewpoint: Some([0.0, f64::INFINITY, 0.0]),
+            ..Default::default()
+        };
+        assert!(matches!(c.validate(), Err(MeshlessError::Viewpoint { .. })));
+        MeshlessConfig::default().validate().unwrap();
+    }
+
+    #[test]
+    fn support_factor_is_linear() {
+        let c = MeshlessConfig::default();
+        assert_eq!(c.support_factor(0), 1.5);
+        assert!((c.support_factor(5) - 2.5).abs() < 1e-15);
+        assert!((c.support_factor(2) - 1.9).abs() < 1e-12);
+    }
+}
