@@ -156,7 +156,13 @@ impl Basis {
             });
         }
         let grids = (0..levels.len())
-            .map(|l| Grid::build(&x[level_start[l]..level_start[l + 1]], level_start[l], radii[l]))
+            .map(|l| {
+                Grid::build(
+                    &x[level_start[l]..level_start[l + 1]],
+                    level_start[l],
+                    radii[l],
+                )
+            })
             .collect();
         let mut b = Self {
             x,
@@ -349,11 +355,6 @@ impl Basis {
         }
     }
 
-    /// Cached ancestors of `i` (empty unless `i` is on a cached level).
-    pub(crate) fn cached_ancestors(&self, i: usize) -> &[(u32, f64)] {
-        self.ancestors.row(i)
-    }
-
     fn ancestors_uncached(&self, i: usize, out: &mut Vec<(u32, f64)>) {
         out.clear();
         let l = self.level_of(i);
@@ -413,29 +414,26 @@ impl Basis {
             let fine = &tail[..];
             let base = self.level_start[l + 1];
             let lo = self.level_start[l] * k;
-            head[lo..]
-                .par_chunks_mut(k)
-                .enumerate()
-                .for_each_init(
-                    || vec![0.0; k],
-                    |acc, (q, out)| {
-                        let i = self.level_start[l] + q;
-                        acc.iter_mut().for_each(|v| *v = 0.0);
-                        let mut sw = 0.0;
-                        for &(c, w) in self.children(i) {
-                            let c = c as usize - base;
-                            sw += w;
-                            for t in 0..k {
-                                acc[t] += w * fine[c * k + t];
-                            }
+            head[lo..].par_chunks_mut(k).enumerate().for_each_init(
+                || vec![0.0; k],
+                |acc, (q, out)| {
+                    let i = self.level_start[l] + q;
+                    acc.iter_mut().for_each(|v| *v = 0.0);
+                    let mut sw = 0.0;
+                    for &(c, w) in self.children(i) {
+                        let c = c as usize - base;
+                        sw += w;
+                        for t in 0..k {
+                            acc[t] += w * fine[c * k + t];
                         }
-                        if sw > 0.0 {
-                            for t in 0..k {
-                                out[t] = acc[t] / sw;
-                            }
+                    }
+                    if sw > 0.0 {
+                        for t in 0..k {
+                            out[t] = acc[t] / sw;
                         }
-                    },
-                );
+                    }
+                },
+            );
         }
         a
     }
@@ -464,7 +462,13 @@ impl Basis {
     }
 
     /// Adjoint of the push of the first `levels` levels, in place (sequential).
-    pub(crate) fn push_adjoint(&self, t: &mut [f64], k: usize, levels: usize, anc: &mut Vec<(u32, f64)>) {
+    pub(crate) fn push_adjoint(
+        &self,
+        t: &mut [f64],
+        k: usize,
+        levels: usize,
+        anc: &mut Vec<(u32, f64)>,
+    ) {
         for l in (1..levels).rev() {
             for i in self.level_range(l) {
                 if t[i * k..(i + 1) * k].iter().all(|v| *v == 0.0) {
@@ -568,9 +572,18 @@ mod tests {
             for i in 0..m {
                 for j in 0..m {
                     let (a, b): (f64, f64) = (rng.random(), rng.random());
-                    let (u, v) = ((i as f64 + 0.2 + 0.6 * a) * h, (j as f64 + 0.2 + 0.6 * b) * h);
-                    lv.push(BasisPoint { x: DVec3::new(u, v, 0.0), n: DVec3::Z });
-                    lv.push(BasisPoint { x: DVec3::new(0.0, u, v), n: DVec3::X });
+                    let (u, v) = (
+                        (i as f64 + 0.2 + 0.6 * a) * h,
+                        (j as f64 + 0.2 + 0.6 * b) * h,
+                    );
+                    lv.push(BasisPoint {
+                        x: DVec3::new(u, v, 0.0),
+                        n: DVec3::Z,
+                    });
+                    lv.push(BasisPoint {
+                        x: DVec3::new(0.0, u, v),
+                        n: DVec3::X,
+                    });
                 }
             }
             pts.push(lv);
@@ -586,7 +599,10 @@ mod tests {
         let mut out = Vec::new();
         for _ in 0..500 {
             let (u, v): (f64, f64) = (rng.random(), rng.random());
-            for (x, n) in [(DVec3::new(u, v, 0.0), DVec3::Z), (DVec3::new(0.0, u, v), DVec3::X)] {
+            for (x, n) in [
+                (DVec3::new(u, v, 0.0), DVec3::Z),
+                (DVec3::new(0.0, u, v), DVec3::X),
+            ] {
                 for l in 0..b.levels() {
                     let w = b.basis_at(l, x, n, &mut out);
                     assert!(w > 0.0, "level {l} must cover the sheet");
@@ -613,10 +629,22 @@ mod tests {
             for l in 0..b.levels() {
                 for i in b.level_range(l) {
                     let want = if l == 0 { 2.5 } else { 0.0 };
-                    assert!((coef[i] - want).abs() < 1e-12, "{name} level {l}: {}", coef[i]);
+                    assert!(
+                        (coef[i] - want).abs() < 1e-12,
+                        "{name} level {l}: {}",
+                        coef[i]
+                    );
                 }
             }
-            b.evaluate(coef, 1, 0..b.levels(), DVec3::new(0.3, 0.7, 0.0), DVec3::Z, &mut out, &mut s);
+            b.evaluate(
+                coef,
+                1,
+                0..b.levels(),
+                DVec3::new(0.3, 0.7, 0.0),
+                DVec3::Z,
+                &mut out,
+                &mut s,
+            );
             assert!((out[0] - 2.5).abs() < 1e-12);
         }
     }
@@ -654,7 +682,10 @@ mod tests {
         b.pull_adjoint(&mut g, k, levels);
         let lhs: f64 = t.iter().zip(&pf).map(|(a, b)| a * b).sum();
         let rhs: f64 = g.iter().zip(&f).map(|(a, b)| a * b).sum();
-        assert!((lhs - rhs).abs() < 1e-10 * lhs.abs().max(1.0), "{lhs} vs {rhs}");
+        assert!(
+            (lhs - rhs).abs() < 1e-10 * lhs.abs().max(1.0),
+            "{lhs} vs {rhs}"
+        );
     }
 
     #[test]
@@ -680,14 +711,33 @@ mod tests {
     #[test]
     fn bad_points_are_dropped_and_counted() {
         let lv = vec![
-            BasisPoint { x: DVec3::ZERO, n: DVec3::Z },
-            BasisPoint { x: DVec3::X, n: DVec3::ZERO },
-            BasisPoint { x: DVec3::Y, n: DVec3::splat(f64::NAN) },
-            BasisPoint { x: DVec3::splat(f64::NAN), n: DVec3::Z },
+            BasisPoint {
+                x: DVec3::ZERO,
+                n: DVec3::Z,
+            },
+            BasisPoint {
+                x: DVec3::X,
+                n: DVec3::ZERO,
+            },
+            BasisPoint {
+                x: DVec3::Y,
+                n: DVec3::splat(f64::NAN),
+            },
+            BasisPoint {
+                x: DVec3::splat(f64::NAN),
+                n: DVec3::Z,
+            },
         ];
         let b = Basis::from_levels(&[lv], &[1.0], 1).unwrap();
         assert_eq!((b.len(), b.dropped()), (1, 3));
-        let e = Basis::from_levels(&[vec![BasisPoint { x: DVec3::X, n: DVec3::ZERO }]], &[1.0], 1);
+        let e = Basis::from_levels(
+            &[vec![BasisPoint {
+                x: DVec3::X,
+                n: DVec3::ZERO,
+            }]],
+            &[1.0],
+            1,
+        );
         assert!(matches!(e, Err(MeshlessError::EmptyLevel { level: 0, .. })));
         assert!(Basis::from_levels(&[], &[], 0).is_err());
         assert!(Basis::from_levels(&[vec![]], &[0.0], 0).is_err());
@@ -697,8 +747,14 @@ mod tests {
     fn coincident_opposite_points_do_not_mix() {
         // A two-sided sheet: the same position with opposite normals, one level.
         let lv = vec![
-            BasisPoint { x: DVec3::ZERO, n: DVec3::Z },
-            BasisPoint { x: DVec3::ZERO, n: -DVec3::Z },
+            BasisPoint {
+                x: DVec3::ZERO,
+                n: DVec3::Z,
+            },
+            BasisPoint {
+                x: DVec3::ZERO,
+                n: -DVec3::Z,
+            },
         ];
         let b = Basis::from_levels(&[lv], &[1.0], 1).unwrap();
         let mut out = Vec::new();

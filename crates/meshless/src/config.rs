@@ -184,17 +184,83 @@ mod tests {
     #[test]
     fn bad_configs_are_typed_errors() {
         let cases: Vec<(&str, MeshlessConfig)> = vec![
-            ("receiver_levels", MeshlessConfig { receiver_levels: 0, ..Default::default() }),
-            ("receiver_levels", MeshlessConfig { receiver_levels: 17, ..Default::default() }),
-            ("sender_levels", MeshlessConfig { sender_levels: 7, ..Default::default() }),
-            ("r_coarse", MeshlessConfig { r_coarse: 0.0, ..Default::default() }),
-            ("r_coarse", MeshlessConfig { r_coarse: -1.0, ..Default::default() }),
-            ("r_coarse", MeshlessConfig { r_coarse: f64::NAN, ..Default::default() }),
-            ("epsilon", MeshlessConfig { epsilon: -1e-3, ..Default::default() }),
-            ("epsilon", MeshlessConfig { epsilon: f64::NAN, ..Default::default() }),
-            ("gather_rays", MeshlessConfig { gather_rays: 0, ..Default::default() }),
-            ("bounces", MeshlessConfig { bounces: 0, ..Default::default() }),
-            ("skip", MeshlessConfig { skip: 1.0, ..Default::default() }),
+            (
+                "receiver_levels",
+                MeshlessConfig {
+                    receiver_levels: 0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "receiver_levels",
+                MeshlessConfig {
+                    receiver_levels: 17,
+                    ..Default::default()
+                },
+            ),
+            (
+                "sender_levels",
+                MeshlessConfig {
+                    sender_levels: 7,
+                    ..Default::default()
+                },
+            ),
+            (
+                "r_coarse",
+                MeshlessConfig {
+                    r_coarse: 0.0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "r_coarse",
+                MeshlessConfig {
+                    r_coarse: -1.0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "r_coarse",
+                MeshlessConfig {
+                    r_coarse: f64::NAN,
+                    ..Default::default()
+                },
+            ),
+            (
+                "epsilon",
+                MeshlessConfig {
+                    epsilon: -1e-3,
+                    ..Default::default()
+                },
+            ),
+            (
+                "epsilon",
+                MeshlessConfig {
+                    epsilon: f64::NAN,
+                    ..Default::default()
+                },
+            ),
+            (
+                "gather_rays",
+                MeshlessConfig {
+                    gather_rays: 0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "bounces",
+                MeshlessConfig {
+                    bounces: 0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "skip",
+                MeshlessConfig {
+                    skip: 1.0,
+                    ..Default::default()
+                },
+            ),
         ];
         for (what, c) in cases {
             match c.validate() {

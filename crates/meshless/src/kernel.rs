@@ -98,7 +98,13 @@ mod tests {
         assert_eq!(w, 0.0);
         let w = weight(DVec3::ZERO, DVec3::Z, 1.0, DVec3::splat(f64::NAN), DVec3::Z);
         assert_eq!(w, 0.0);
-        let w = weight(DVec3::ZERO, DVec3::Z, 1.0, DVec3::ZERO, DVec3::splat(f64::NAN));
+        let w = weight(
+            DVec3::ZERO,
+            DVec3::Z,
+            1.0,
+            DVec3::ZERO,
+            DVec3::splat(f64::NAN),
+        );
         assert_eq!(w, 0.0);
         assert_eq!(
             poisson_distance(DVec3::ZERO, DVec3::Z, DVec3::ZERO, -DVec3::Z),

@@ -24,7 +24,7 @@
 use glam::{DVec2, DVec3};
 use rand::RngExt;
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::MeshlessError;
 use crate::basis::BasisPoint;
@@ -48,7 +48,7 @@ const TAG_FREE: u64 = 2;
 const TAG_PROBES: u64 = 3;
 
 /// Statistics of one level's placement.
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct LevelStats {
     /// Poisson-disk spacing `R_l` (scene units).
     pub spacing: f64,
@@ -69,7 +69,7 @@ pub struct LevelStats {
 }
 
 /// Statistics of the whole placement.
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct PlacementStats {
     /// Per level.
     pub levels: Vec<LevelStats>,
@@ -250,7 +250,10 @@ impl Accepted {
         for dx in -1..=1 {
             for dy in -1..=1 {
                 for dz in -1..=1 {
-                    if let Some(list) = self.cells.get(&Self::pack([k[0] + dx, k[1] + dy, k[2] + dz])) {
+                    if let Some(list) =
+                        self.cells
+                            .get(&Self::pack([k[0] + dx, k[1] + dy, k[2] + dz]))
+                    {
                         for &i in list {
                             if (i as usize) < limit {
                                 let q = &self.points[i as usize];
@@ -391,7 +394,8 @@ pub fn place_points<Q: SurfaceQuery + ?Sized>(
     stats.particles += probes.particles;
     stats.rays += probes.rays;
     for (l, pts) in levels.iter().enumerate() {
-        let grid = crate::grid::Grid::build(&pts.iter().map(|p| p.x).collect::<Vec<_>>(), 0, radii[l]);
+        let grid =
+            crate::grid::Grid::build(&pts.iter().map(|p| p.x).collect::<Vec<_>>(), 0, radii[l]);
         let r = radii[l];
         let holes = probe_points
             .par_iter()

@@ -96,11 +96,17 @@ fn side_mat(scene: &Scene, id: usize, surface: &str) -> Result<SideMat, Meshless
         .ok_or_else(|| err(format!("surface {surface:?}: material {id} missing")))?;
     let mut rho = m.reflectance.0;
     let mut e = m.emission.0;
-    if let Some(t) = m.reflectance_texture.and_then(|t| scene.textures.get(t.texture)) {
+    if let Some(t) = m
+        .reflectance_texture
+        .and_then(|t| scene.textures.get(t.texture))
+    {
         let t = t.mean().0;
         rho = std::array::from_fn(|c| rho[c] * t[c]);
     }
-    if let Some(t) = m.emission_texture.and_then(|t| scene.textures.get(t.texture)) {
+    if let Some(t) = m
+        .emission_texture
+        .and_then(|t| scene.textures.get(t.texture))
+    {
         let t = t.mean().0;
         e = std::array::from_fn(|c| e[c] * t[c]);
     }
@@ -132,7 +138,9 @@ impl SceneSurfaces {
             scene: scene.name.clone(),
             reason,
         };
-        let prims = scene.primitives(&scene.name).map_err(|e| err(e.to_string()))?;
+        let prims = scene
+            .primitives(&scene.name)
+            .map_err(|e| err(e.to_string()))?;
         if prims.is_empty() {
             return Err(err("the scene has no surfaces".into()));
         }

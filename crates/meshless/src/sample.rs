@@ -18,7 +18,9 @@ fn splitmix(mut z: u64) -> u64 {
 
 /// The generator of stream `(seed, a, b)`.
 pub(crate) fn rng_for(seed: u64, a: u64, b: u64) -> Pcg64 {
-    Pcg64::seed_from_u64(splitmix(splitmix(seed ^ splitmix(a)) ^ splitmix(b ^ 0x6d65_7368)))
+    Pcg64::seed_from_u64(splitmix(
+        splitmix(seed ^ splitmix(a)) ^ splitmix(b ^ 0x6d65_7368),
+    ))
 }
 
 /// `n` stratified points of `[0, 1)²`: a jittered `m × m` grid when `n = m²`, else
@@ -123,7 +125,11 @@ mod tests {
         let mut rng = rng_for(4, 5, 6);
         let mut out = Vec::new();
         stratified(4096, &mut rng, &mut out);
-        let mean: f64 = out.iter().map(|&uv| hemisphere(n, t, b, uv).dot(n)).sum::<f64>() / 4096.0;
+        let mean: f64 = out
+            .iter()
+            .map(|&uv| hemisphere(n, t, b, uv).dot(n))
+            .sum::<f64>()
+            / 4096.0;
         assert!((mean - 0.5).abs() < 1e-3, "{mean}");
     }
 }

@@ -612,6 +612,11 @@ pub const BUILTIN_NAMES: &[&str] = &[
     "quadric-teapot",
     "chess-set",
     "office",
+    "atrium",
+    "atrium-s",
+    "atrium-xl",
+    "leak-rooms",
+    "closed-sphere",
 ];
 
 /// A built-in scene by name (see [`BUILTIN_NAMES`]); `white-furnace` uses `E = 1`,
@@ -621,6 +626,9 @@ pub const BUILTIN_NAMES: &[&str] = &[
 /// Returns `None` for unknown names.
 pub fn builtin(name: &str) -> Option<Scene> {
     if let Some(s) = crate::virtual_mesh::by_name(name) {
+        return Some(s);
+    }
+    if let Some(s) = crate::meshless_scenes::by_name(name) {
         return Some(s);
     }
     match name {

@@ -13,6 +13,8 @@
 //! - [`analytic`]: trimmed analytic patches on `wavelux-param`'s equal-area maps;
 //! - [`builtin`]: Cornell box, Ziegler §4.1.1 and §4.2.1 scenes, white furnace, and
 //!   the VirtualMesh §6 scenes by name;
+//! - [`meshless_scenes`]: the meshless method's scenes (atrium, leak rooms, closed
+//!   sphere);
 //! - [`virtual_mesh`]: VirtualMesh §6's test scenes — architecture (complex polygons),
 //!   quadric teapot, chess set;
 //! - [`tessellated`]: their tessellated baselines (VirtualMesh §6.1–6.2);
@@ -42,6 +44,7 @@ pub mod gltf_load;
 pub mod light;
 pub mod material;
 pub mod medium;
+pub mod meshless_scenes;
 pub mod native;
 pub mod office;
 pub mod scene;

@@ -244,13 +244,30 @@ mod tests {
 
     #[test]
     fn power_closed_form_matches_quadrature() {
-        let cases = [(0.0, 0.5), (0.3, 0.9), (0.5, 0.5), (1.0, PI), (PI, PI), (0.2, 2.5)];
+        let cases = [
+            (0.0, 0.5),
+            (0.3, 0.9),
+            (0.5, 0.5),
+            (1.0, PI),
+            (PI, PI),
+            (0.2, 2.5),
+        ];
         for (inner, outer) in cases {
-            let l = Light::spot("s", DVec3::ZERO, DVec3::new(1.0, 2.0, -0.5), inner, outer, Rgb::grey(2.0));
+            let l = Light::spot(
+                "s",
+                DVec3::ZERO,
+                DVec3::new(1.0, 2.0, -0.5),
+                inner,
+                outer,
+                Rgb::grey(2.0),
+            );
             l.validate("t").unwrap();
             let exact = l.power()[0];
             let num = power_numeric(&l);
-            assert!((exact - num).abs() < 2e-4 * exact.max(1e-3), "{inner} {outer}: {exact} vs {num}");
+            assert!(
+                (exact - num).abs() < 2e-4 * exact.max(1e-3),
+                "{inner} {outer}: {exact} vs {num}"
+            );
         }
         let p = Light::point("p", DVec3::ONE, Rgb::grey(1.0));
         assert!((p.power()[0] - 4.0 * PI).abs() < 1e-12);
@@ -275,11 +292,21 @@ mod tests {
 
     #[test]
     fn irradiance_inverse_square_and_cosine() {
-        let l = Light::spot("s", DVec3::new(0.0, 0.0, 2.0), -DVec3::Z, 0.2, 0.4, Rgb::grey(3.0));
+        let l = Light::spot(
+            "s",
+            DVec3::new(0.0, 0.0, 2.0),
+            -DVec3::Z,
+            0.2,
+            0.4,
+            Rgb::grey(3.0),
+        );
         let e = l.irradiance_at(DVec3::ZERO, DVec3::Z);
         assert!((e[0] - 3.0 / 4.0).abs() < 1e-15);
         // Outside the cone: nothing; behind the surface: nothing.
-        assert_eq!(l.irradiance_at(DVec3::new(5.0, 0.0, 0.0), DVec3::Z), [0.0; 3]);
+        assert_eq!(
+            l.irradiance_at(DVec3::new(5.0, 0.0, 0.0), DVec3::Z),
+            [0.0; 3]
+        );
         assert_eq!(l.irradiance_at(DVec3::ZERO, -DVec3::Z), [0.0; 3]);
         // At the light itself: finite zero.
         assert_eq!(l.irradiance_at(l.position, DVec3::Z), [0.0; 3]);
