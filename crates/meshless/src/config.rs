@@ -12,9 +12,11 @@ pub struct MeshlessConfig {
     pub receiver_levels: usize,
     /// Sender levels `L_s`, the first levels of the same basis (§4.2: 3), `1..=L_r`.
     pub sender_levels: usize,
-    /// Poisson-disk spacing `R_coarse` of level 0 as a fraction of the scene's
-    /// bounding-box diagonal (ours: scale-free); `R_l = R_coarse / 2^l`.
-    pub r_coarse: f64,
+    /// Poisson-disk spacing `R_coarse` of level 0 in scene units (§2.3: a user
+    /// constant); `R_l = R_coarse / 2^l`. `None`: [`DEFAULT_R_FRACTION`] of the diagonal
+    /// of the scene's bounding box (ours; a convenience that, unlike an explicit value,
+    /// changes when a rotation changes the box).
+    pub r_coarse: Option<f64>,
     /// Support factor `C` of level 0, `r = C·R` (§2.3: 1.5).
     pub c_coarse: f64,
     /// Support factor `C` of the finest level (§2.3: 2.5); linear in between.
@@ -55,7 +57,7 @@ impl Default for MeshlessConfig {
         Self {
             receiver_levels: 6,
             sender_levels: 3,
-            r_coarse: 0.06,
+            r_coarse: None,
             c_coarse: 1.5,
             c_fine: 2.5,
             max_failures: 2000,
@@ -83,7 +85,16 @@ fn check_finite(what: &'static str, v: f64) -> Result<(), MeshlessError> {
     }
 }
 
+/// `R_coarse` as a fraction of the scene's bounding-box diagonal when
+/// [`MeshlessConfig::r_coarse`] is `None`.
+pub const DEFAULT_R_FRACTION: f64 = 0.05;
+
 impl MeshlessConfig {
+    /// `R_coarse` in scene units for a scene whose bounding box has diagonal `diag`.
+    pub fn r_coarse_for(&self, diag: f64) -> f64 {
+        self.r_coarse.unwrap_or(DEFAULT_R_FRACTION * diag)
+    }
+
     /// Checks every range documented on the fields.
     ///
     /// # Errors
@@ -106,7 +117,7 @@ impl MeshlessConfig {
             );
         }
         for (what, v) in [
-            ("r_coarse", self.r_coarse),
+            ("r_coarse", self.r_coarse.unwrap_or(1.0)),
             ("c_coarse", self.c_coarse),
             ("c_fine", self.c_fine),
             ("free_reject", self.free_reject),
@@ -115,8 +126,10 @@ impl MeshlessConfig {
         ] {
             check_finite(what, v)?;
         }
-        if !(self.r_coarse > 0.0) {
-            return bad("r_coarse", format!("{} must be > 0", self.r_coarse));
+        if let Some(r) = self.r_coarse
+            && !(r > 0.0)
+        {
+            return bad("r_coarse", format!("{r} must be > 0"));
         }
         if !(self.c_coarse >= 1.0 && self.c_fine >= 1.0) {
             return bad(
@@ -208,21 +221,21 @@ mod tests {
             (
                 "r_coarse",
                 MeshlessConfig {
-                    r_coarse: 0.0,
+                    r_coarse: Some(0.0),
                     ..Default::default()
                 },
             ),
             (
                 "r_coarse",
                 MeshlessConfig {
-                    r_coarse: -1.0,
+                    r_coarse: Some(-1.0),
                     ..Default::default()
                 },
             ),
             (
                 "r_coarse",
                 MeshlessConfig {
-                    r_coarse: f64::NAN,
+                    r_coarse: Some(f64::NAN),
                     ..Default::default()
                 },
             ),

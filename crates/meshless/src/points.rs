@@ -278,7 +278,7 @@ impl Accepted {
 }
 
 /// Places the points of every level (module docs) from `viewpoint`; `diag` is the
-/// length `R_coarse` is relative to. `progress(level, points)` is called after each
+/// scene's bounding-box diagonal (for the default `R_coarse`). `progress(level, points)` is called after each
 /// level.
 ///
 /// # Errors
@@ -307,7 +307,7 @@ pub fn place_points<Q: SurfaceQuery + ?Sized>(
     let mut radii = Vec::new();
     let mut total = 0usize;
     for l in 0..config.receiver_levels {
-        let spacing = config.r_coarse * diag / f64::from(1u32 << l);
+        let spacing = config.r_coarse_for(diag) / f64::from(1u32 << l);
         let radius = config.support_factor(l) * spacing;
         let mut st = LevelStats {
             spacing,
