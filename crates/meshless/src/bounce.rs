@@ -87,6 +87,11 @@ pub(crate) fn apply_q(
     basis.pull_push(&s, 3, sender_levels)
 }
 
+/// A sparse row of links, sorted by sender.
+type LinkRow = Vec<(u32, Link)>;
+/// A row of `M₀`: level-0 receiver and its 3×3-per-channel block.
+type BlockRow = Vec<(u32, [f64; 27])>;
+
 struct RowScratch {
     t: Vec<f64>,
     w: Vec<[f64; 27]>,
@@ -179,7 +184,7 @@ pub fn bounces(
     let eval = eval_matrix(basis, senders, &|k| active_of[k] != u32::MAX);
     stats.eval_entries = eval.items.len();
     // One parallel pass over the level-0 rows: S_2 rows and M₀ rows.
-    let first: Vec<(Vec<(u32, Link)>, Vec<(u32, [f64; 27])>)> = level0
+    let first: Vec<(LinkRow, BlockRow)> = level0
         .clone()
         .into_par_iter()
         .map_init(

@@ -17,6 +17,9 @@
 //! - [`relight`]: [`Precomputed`], [`Relighter`], [`Indirect`], flattening (§3.3, §4.1);
 //! - [`io`]: save and load of precomputed transfers.
 
+// reason: `!(x > 0.0)` is the idiom that also rejects NaN, which every guard here needs.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod backend;
 pub mod basis;
 pub mod bounce;

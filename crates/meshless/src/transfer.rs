@@ -218,6 +218,9 @@ fn select(basis: &Basis, epsilon: f64, s: &mut Scratch) -> (Vec<(u32, Link)>, us
     (kept, computed)
 }
 
+/// One processed receiver: index, kept links, links computed, rays.
+type ReceiverResult = (usize, Vec<(u32, Link)>, usize, u64);
+
 /// Refines `T` (module docs). `progress(level, processed)` is called after each level.
 ///
 /// # Errors
@@ -246,7 +249,7 @@ pub fn refine<Q: SurfaceQuery + ?Sized>(
             processed: queue.len(),
             ..Default::default()
         };
-        let results: Vec<(usize, Vec<(u32, Link)>, usize, u64)> = queue
+        let results: Vec<ReceiverResult> = queue
             .par_iter()
             .map_init(
                 || Scratch::new(senders),

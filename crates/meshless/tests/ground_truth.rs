@@ -64,7 +64,10 @@ fn furnace_matches_the_neumann_series_and_gmres_the_closed_form() {
             let v = at_points(&pre, &ind);
             let want: f64 = (1..=b).map(|k| rho.powi(k as i32)).sum();
             let m = mean(&v);
-            assert!((m / want - 1.0).abs() < 0.01, "ρ {rho} B {b}: mean {m} vs {want}");
+            assert!(
+                (m / want - 1.0).abs() < 0.01,
+                "ρ {rho} B {b}: mean {m} vs {want}"
+            );
             let worst = v.iter().map(|x| (x / want - 1.0).abs()).fold(0.0, f64::max);
             assert!(worst < 0.05, "ρ {rho} B {b}: worst point off by {worst}");
         }
@@ -73,7 +76,10 @@ fn furnace_matches_the_neumann_series_and_gmres_the_closed_form() {
             let ind = Indirect::new(&pre.basis, c).unwrap();
             let m = mean(&at_points(&pre, &ind));
             let want = rho / (1.0 - rho);
-            assert!((m / want - 1.0).abs() < 0.02, "GMRES: {m} vs {want} ({iters:?})");
+            assert!(
+                (m / want - 1.0).abs() < 0.02,
+                "GMRES: {m} vs {want} ({iters:?})"
+            );
         }
     }
 }
@@ -90,11 +96,22 @@ fn eq17_with_zero_epsilon_is_p_of_the_gathered_rows() {
         ..Default::default()
     };
     let q = SceneSurfaces::new(&scene).unwrap();
-    let pre = Precomputed::build(&scene, &MeshlessConfig { bounces: 1, ..cfg.clone() }, &quiet).unwrap();
+    let pre = Precomputed::build(
+        &scene,
+        &MeshlessConfig {
+            bounces: 1,
+            ..cfg.clone()
+        },
+        &quiet,
+    )
+    .unwrap();
     let b = &pre.basis;
     let (t, stats) = refine(&q, b, &cfg, &|_, _| {}).unwrap();
     // Every receiver was processed.
-    assert_eq!(stats.levels.iter().map(|l| l.processed).sum::<usize>(), b.len());
+    assert_eq!(
+        stats.levels.iter().map(|l| l.processed).sum::<usize>(),
+        b.len()
+    );
     let ns = pre.senders();
     // T' as samples at every receiver point, k = 9·ns components per point.
     let k = 9 * ns;
@@ -148,7 +165,16 @@ fn sphere_one_bounce_is_uniform_analytic_and_accel() {
         bounces: 1,
         ..Default::default()
     };
-    let spot = |p: DVec3, d: DVec3| Light::spot("s", p, d, 25f64.to_radians(), 50f64.to_radians(), Rgb::grey(10.0));
+    let spot = |p: DVec3, d: DVec3| {
+        Light::spot(
+            "s",
+            p,
+            d,
+            25f64.to_radians(),
+            50f64.to_radians(),
+            Rgb::grey(10.0),
+        )
+    };
     let analytic = SphereInterior {
         center: DVec3::ZERO,
         radius: SPHERE_RADIUS,
@@ -159,16 +185,32 @@ fn sphere_one_bounce_is_uniform_analytic_and_accel() {
     for (name, l) in [("off-centre", &off_centre), ("near the wall", &near_wall)] {
         let (m, rms, worst) = sphere_check(&analytic, &cfg, l);
         println!("sphere, analytic, spot {name}: mean {m:.4}, rms {rms:.4}, worst {worst:.4}");
-        assert!((m - 1.0).abs() < 0.03 && rms < 0.03, "analytic, {name}: mean {m}, rms {rms}");
+        assert!(
+            (m - 1.0).abs() < 0.03 && rms < 0.03,
+            "analytic, {name}: mean {m}, rms {rms}"
+        );
     }
     let scene = closed_sphere();
     let q = SceneSurfaces::new(&scene).unwrap();
     let (m, rms, worst) = sphere_check(&q, &cfg, &scene.lights[0]);
     println!("sphere, Accel: mean {m:.4}, rms {rms:.4}, worst {worst:.4}");
-    assert!((m - 1.0).abs() < 0.03 && rms < 0.03, "Accel: mean {m}, rms {rms}");
+    assert!(
+        (m - 1.0).abs() < 0.03 && rms < 0.03,
+        "Accel: mean {m}, rms {rms}"
+    );
     // The energy lost to truncation at the paper's ε (reported, not asserted).
-    let (m3, _, _) = sphere_check(&analytic, &MeshlessConfig { epsilon: 0.025, ..cfg }, &off_centre);
-    println!("sphere: one-bounce energy kept at ε = 0.025: {m3:.4} (lost {:.1} %)", 100.0 * (1.0 - m3));
+    let (m3, _, _) = sphere_check(
+        &analytic,
+        &MeshlessConfig {
+            epsilon: 0.025,
+            ..cfg
+        },
+        &off_centre,
+    );
+    println!(
+        "sphere: one-bounce energy kept at ε = 0.025: {m3:.4} (lost {:.1} %)",
+        100.0 * (1.0 - m3)
+    );
 }
 
 #[test]
@@ -181,14 +223,38 @@ fn single_small_level_and_budgets() {
         ..Default::default()
     };
     let pre = Precomputed::build(&scene, &cfg, &quiet).unwrap();
-    assert!(pre.basis.len() <= 10 && pre.basis.len() >= 6, "{} points", pre.basis.len());
+    assert!(
+        pre.basis.len() <= 10 && pre.basis.len() >= 6,
+        "{} points",
+        pre.basis.len()
+    );
     let rl = Relighter::new(&pre, CpuBackend).unwrap();
     let ind = rl.relight_direct(&vec![[1.0; 3]; pre.senders()]).unwrap();
     assert!(ind.coeffs.iter().all(|v| v.is_finite()));
-    let e = Precomputed::build(&scene, &MeshlessConfig { max_points: 10, ..furnace_config(1e-3) }, &quiet);
-    assert!(matches!(e, Err(MeshlessError::Budget { what: "points", .. })), "{e:?}");
-    let e = Precomputed::build(&scene, &MeshlessConfig { max_links: 50, ..furnace_config(1e-3) }, &quiet);
-    assert!(matches!(e, Err(MeshlessError::Budget { what: "links", .. })), "{e:?}");
+    let e = Precomputed::build(
+        &scene,
+        &MeshlessConfig {
+            max_points: 10,
+            ..furnace_config(1e-3)
+        },
+        &quiet,
+    );
+    assert!(
+        matches!(e, Err(MeshlessError::Budget { what: "points", .. })),
+        "{e:?}"
+    );
+    let e = Precomputed::build(
+        &scene,
+        &MeshlessConfig {
+            max_links: 50,
+            ..furnace_config(1e-3)
+        },
+        &quiet,
+    );
+    assert!(
+        matches!(e, Err(MeshlessError::Budget { what: "links", .. })),
+        "{e:?}"
+    );
 }
 
 /// Meshless §5.2: coarse functions leak through thin walls and finer levels correct
@@ -215,7 +281,15 @@ fn leak_rooms_dark_room_stays_dark() {
     let wall = wavelux_scene::meshless_scenes::leak_rooms_wall();
     let mut ratios = Vec::new();
     for b in [1usize, 2] {
-        let (s, _) = bounces(&pre.basis, &pre.t, &MeshlessConfig { bounces: b, ..cfg.clone() }).unwrap();
+        let (s, _) = bounces(
+            &pre.basis,
+            &pre.t,
+            &MeshlessConfig {
+                bounces: b,
+                ..cfg.clone()
+            },
+        )
+        .unwrap();
         let mut c = vec![0.0; s.rows() * 9];
         s.apply_f64(&e, &mut c);
         let ind = Indirect::new(&pre.basis, c).unwrap();
@@ -232,7 +306,10 @@ fn leak_rooms_dark_room_stays_dark() {
         assert!(!dark.is_empty() && !lit.is_empty());
         ratios.push(mean(&dark) / mean(&lit));
     }
-    println!("leak rooms: dark/lit = {:.4} (B = 1), {:.4} (B = 2)", ratios[0], ratios[1]);
+    println!(
+        "leak rooms: dark/lit = {:.4} (B = 1), {:.4} (B = 2)",
+        ratios[0], ratios[1]
+    );
     assert!(ratios[0].abs() < 0.02, "dark/lit {}", ratios[0]);
 }
 
@@ -278,13 +355,19 @@ fn one_sided_light_on_a_two_sided_sheet() {
     let pre = Precomputed::build(&scene, &cfg, &quiet).unwrap();
     let b = &pre.basis;
     let on_sheet = |i: usize| b.position(i).z.abs() < 1e-9;
-    let front = (0..b.len()).filter(|&i| on_sheet(i) && b.normal(i).z > 0.5).count();
-    let back = (0..b.len()).filter(|&i| on_sheet(i) && b.normal(i).z < -0.5).count();
+    let front = (0..b.len())
+        .filter(|&i| on_sheet(i) && b.normal(i).z > 0.5)
+        .count();
+    let back = (0..b.len())
+        .filter(|&i| on_sheet(i) && b.normal(i).z < -0.5)
+        .count();
     assert!(front > 0 && back > 0, "front {front}, back {back}");
     // Light above the sheet: the back side's projected direct is exactly zero.
     let q = SceneSurfaces::new(&scene).unwrap();
     let light = Light::point("above", DVec3::new(0.2, 0.1, 1.0), Rgb::grey(5.0));
-    let direct = DirectLighting::Lights(vec![light]).irradiance(&q, &pre.sender_points()).unwrap();
+    let direct = DirectLighting::Lights(vec![light])
+        .irradiance(&q, &pre.sender_points())
+        .unwrap();
     let e = pre.project_direct(&direct).unwrap();
     let ls = pre.config.sender_levels;
     let mut out = [0.0; 3];
@@ -302,15 +385,25 @@ fn light_on_a_surface_and_black_senders() {
     let mut scene = white_furnace(0.0, 0.6).unwrap();
     // Make the floor (z = 0 face) black.
     let black = scene.add_material(Material::lambertian("black", Rgb::BLACK, Rgb::BLACK));
-    let floor = scene.surfaces.iter().position(|s| s.name == "face-z0").unwrap();
+    let floor = scene
+        .surfaces
+        .iter()
+        .position(|s| s.name == "face-z0")
+        .unwrap();
     scene.surfaces[floor].material = black;
-    let cfg = MeshlessConfig { gather_rays: 64, ..furnace_config(1e-3) };
+    let cfg = MeshlessConfig {
+        gather_rays: 64,
+        ..furnace_config(1e-3)
+    };
     let pre = Precomputed::build(&scene, &cfg, &quiet).unwrap();
     let b = &pre.basis;
     for j in 0..pre.senders() {
         if b.position(j).z.abs() < 1e-9 {
             for i in 0..pre.t.rows() {
-                assert!(pre.t.get(i, j).is_none(), "black sender {j} linked from {i}");
+                assert!(
+                    pre.t.get(i, j).is_none(),
+                    "black sender {j} linked from {i}"
+                );
             }
         }
     }
@@ -321,7 +414,11 @@ fn light_on_a_surface_and_black_senders() {
     let ind = rl.relight(&q, &[on]).unwrap();
     assert!(ind.coeffs.iter().all(|v| v.is_finite()));
     for i in 0..b.len() {
-        assert!(ind.irradiance_at(b.position(i), b.normal(i)).iter().all(|v| v.is_finite()));
+        assert!(
+            ind.irradiance_at(b.position(i), b.normal(i))
+                .iter()
+                .all(|v| v.is_finite())
+        );
     }
 }
 
@@ -336,7 +433,11 @@ fn build_in_pool(threads: usize, scene: &Scene, cfg: &MeshlessConfig) -> Precomp
 #[test]
 fn thread_count_does_not_change_a_bit() {
     let scene = white_furnace(0.0, 0.7).unwrap();
-    let cfg = MeshlessConfig { gather_rays: 32, bounces: 3, ..furnace_config(1e-3) };
+    let cfg = MeshlessConfig {
+        gather_rays: 32,
+        bounces: 3,
+        ..furnace_config(1e-3)
+    };
     let a = build_in_pool(1, &scene, &cfg);
     let b = build_in_pool(2, &scene, &cfg);
     assert_eq!(a.basis.len(), b.basis.len());
@@ -361,7 +462,11 @@ fn scaled_scene(scene: &Scene, m: &DMat4) -> Scene {
 #[test]
 fn power_of_two_scale_is_exact() {
     let scene = white_furnace(0.0, 0.7).unwrap();
-    let cfg = MeshlessConfig { gather_rays: 32, bounces: 2, ..furnace_config(1e-3) };
+    let cfg = MeshlessConfig {
+        gather_rays: 32,
+        bounces: 2,
+        ..furnace_config(1e-3)
+    };
     let base = Precomputed::build(&scene, &cfg, &quiet).unwrap();
     for k in [-10, 10] {
         let f = 2f64.powi(k);
@@ -390,7 +495,11 @@ fn rigid_motion_changes_little() {
         .iter()
         .enumerate()
         .map(|(k, r)| {
-            scene.add_material(Material::lambertian(format!("m{k}"), Rgb::grey(*r), Rgb::BLACK))
+            scene.add_material(Material::lambertian(
+                format!("m{k}"),
+                Rgb::grey(*r),
+                Rgb::BLACK,
+            ))
         })
         .collect();
     for (s, m) in scene.surfaces.iter_mut().zip(&mats) {
@@ -450,17 +559,26 @@ fn rigid_motion_changes_little() {
     }
     for f in 0..6 {
         let (a, b) = (means[0][f], means[1][f]);
-        assert!((a - b).abs() < 0.01 * a.abs().max(b.abs()), "face {f}: {a} vs {b}");
+        assert!(
+            (a - b).abs() < 0.01 * a.abs().max(b.abs()),
+            "face {f}: {a} vs {b}"
+        );
     }
 }
 
 #[test]
 fn f32_backend_matches_the_f64_product() {
     let scene = white_furnace(0.0, 0.8).unwrap();
-    let cfg = MeshlessConfig { gather_rays: 32, bounces: 3, ..furnace_config(1e-3) };
+    let cfg = MeshlessConfig {
+        gather_rays: 32,
+        bounces: 3,
+        ..furnace_config(1e-3)
+    };
     let pre = Precomputed::build(&scene, &cfg, &quiet).unwrap();
     let ns = pre.senders();
-    let e: Vec<f64> = (0..ns * 3).map(|k| ((k * 7919) % 113) as f64 / 113.0 + 0.01).collect();
+    let e: Vec<f64> = (0..ns * 3)
+        .map(|k| ((k * 7919) % 113) as f64 / 113.0 + 0.01)
+        .collect();
     let ef: Vec<f32> = e.iter().map(|v| *v as f32).collect();
     let e64: Vec<f64> = ef.iter().map(|v| f64::from(*v)).collect();
     let mut want = vec![0.0; pre.s.rows() * 9];
@@ -480,7 +598,11 @@ fn f32_backend_matches_the_f64_product() {
 #[test]
 fn save_load_round_trip_and_file_errors() {
     let scene = white_furnace(0.0, 0.5).unwrap();
-    let cfg = MeshlessConfig { gather_rays: 16, bounces: 2, ..furnace_config(1e-3) };
+    let cfg = MeshlessConfig {
+        gather_rays: 16,
+        bounces: 2,
+        ..furnace_config(1e-3)
+    };
     let pre = Precomputed::build(&scene, &cfg, &quiet).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("t.wlxm");
@@ -495,57 +617,121 @@ fn save_load_round_trip_and_file_errors() {
         Err(MeshlessError::File { problem, .. }) => problem,
         other => panic!("{other:?}"),
     };
-    assert!(matches!(problem(Precomputed::load(&path, h ^ 1)), FileProblem::SceneHash { .. }));
+    assert!(matches!(
+        problem(Precomputed::load(&path, h ^ 1)),
+        FileProblem::SceneHash { .. }
+    ));
     let bytes = std::fs::read(&path).unwrap();
     for cut in [3, 30, bytes.len() / 2, bytes.len() - 1] {
         std::fs::write(&path, &bytes[..cut]).unwrap();
         let p = problem(Precomputed::load(&path, h));
-        assert!(matches!(p, FileProblem::Truncated | FileProblem::Magic), "cut {cut}: {p:?}");
+        assert!(
+            matches!(p, FileProblem::Truncated | FileProblem::Magic),
+            "cut {cut}: {p:?}"
+        );
     }
     let mut bad = bytes.clone();
     bad[0] = b'X';
     std::fs::write(&path, &bad).unwrap();
-    assert!(matches!(problem(Precomputed::load(&path, h)), FileProblem::Magic));
+    assert!(matches!(
+        problem(Precomputed::load(&path, h)),
+        FileProblem::Magic
+    ));
     let mut bad = bytes.clone();
     bad[8] = 99;
     std::fs::write(&path, &bad).unwrap();
-    assert!(matches!(problem(Precomputed::load(&path, h)), FileProblem::Version { found: 99, .. }));
-    assert!(matches!(Precomputed::load(&dir.path().join("missing"), h), Err(MeshlessError::Io { .. })));
+    assert!(matches!(
+        problem(Precomputed::load(&path, h)),
+        FileProblem::Version { found: 99, .. }
+    ));
+    assert!(matches!(
+        Precomputed::load(&dir.path().join("missing"), h),
+        Err(MeshlessError::Io { .. })
+    ));
 }
 
 #[test]
 fn bad_input_gets_typed_errors() {
     let scene = white_furnace(0.0, 0.5).unwrap();
-    let cfg = MeshlessConfig { gather_rays: 16, ..furnace_config(1e-3) };
+    let cfg = MeshlessConfig {
+        gather_rays: 16,
+        ..furnace_config(1e-3)
+    };
     let pre = Precomputed::build(&scene, &cfg, &quiet).unwrap();
     let rl = Relighter::new(&pre, CpuBackend).unwrap();
     let n = pre.senders();
-    assert!(matches!(rl.relight_direct(&vec![[1.0; 3]; n + 1]), Err(MeshlessError::Length { .. })));
+    assert!(matches!(
+        rl.relight_direct(&vec![[1.0; 3]; n + 1]),
+        Err(MeshlessError::Length { .. })
+    ));
     let mut v = vec![[1.0; 3]; n];
     v[5][1] = f64::NAN;
-    assert!(matches!(rl.relight_direct(&v), Err(MeshlessError::BadValue { index: 5, .. })));
+    assert!(matches!(
+        rl.relight_direct(&v),
+        Err(MeshlessError::BadValue { index: 5, .. })
+    ));
     v[5][1] = -1.0;
-    assert!(matches!(rl.relight_direct(&v), Err(MeshlessError::BadValue { index: 5, .. })));
+    assert!(matches!(
+        rl.relight_direct(&v),
+        Err(MeshlessError::BadValue { index: 5, .. })
+    ));
     let q = SceneSurfaces::new(&scene).unwrap();
     let good = Light::point("ok", DVec3::splat(0.5), Rgb::grey(1.0));
     let bad = [
         Light::point("nan", DVec3::new(f64::NAN, 0.0, 0.0), Rgb::grey(1.0)),
         Light::point("neg", DVec3::splat(0.5), Rgb::grey(-1.0)),
-        Light::spot("zero", DVec3::splat(0.5), DVec3::ZERO, 0.1, 0.5, Rgb::grey(1.0)),
-        Light::spot("wide", DVec3::splat(0.5), DVec3::Z, 0.1, 4.0, Rgb::grey(1.0)),
-        Light::spot("none", DVec3::splat(0.5), DVec3::Z, 0.0, 0.0, Rgb::grey(1.0)),
+        Light::spot(
+            "zero",
+            DVec3::splat(0.5),
+            DVec3::ZERO,
+            0.1,
+            0.5,
+            Rgb::grey(1.0),
+        ),
+        Light::spot(
+            "wide",
+            DVec3::splat(0.5),
+            DVec3::Z,
+            0.1,
+            4.0,
+            Rgb::grey(1.0),
+        ),
+        Light::spot(
+            "none",
+            DVec3::splat(0.5),
+            DVec3::Z,
+            0.0,
+            0.0,
+            Rgb::grey(1.0),
+        ),
     ];
     for l in bad {
         let name = l.name.clone();
         match rl.relight(&q, &[good.clone(), l]) {
-            Err(MeshlessError::Light { index: 1, name: n, .. }) => assert_eq!(n, name),
+            Err(MeshlessError::Light {
+                index: 1, name: n, ..
+            }) => assert_eq!(n, name),
             other => panic!("{name}: {other:?}"),
         }
     }
     // Viewpoints: non-finite, and blind (outside the closed, inward-facing cube).
-    let e = Precomputed::build(&scene, &MeshlessConfig { viewpoint: Some([f64::NAN, 0.0, 0.0]), ..cfg.clone() }, &quiet);
+    let e = Precomputed::build(
+        &scene,
+        &MeshlessConfig {
+            viewpoint: Some([f64::NAN, 0.0, 0.0]),
+            ..cfg.clone()
+        },
+        &quiet,
+    );
     assert!(matches!(e, Err(MeshlessError::Viewpoint { .. })), "{e:?}");
-    let e = Precomputed::build(&scene, &MeshlessConfig { viewpoint: Some([5.0, 5.0, 5.0]), ..cfg.clone() }, &quiet);
+    let e = Precomputed::build(
+        &scene,
+        &MeshlessConfig {
+            viewpoint: Some([5.0, 5.0, 5.0]),
+            ..cfg.clone()
+        },
+        &quiet,
+    );
     assert!(matches!(e, Err(MeshlessError::Viewpoint { .. })), "{e:?}");
     // An empty level: spacing so small the dart thrower cannot run dry? No: spacing so
     // large relative to a tiny level count is fine; an empty scene is a scene error.

@@ -5,6 +5,7 @@
 
 pub use wavelux_geometry as geometry;
 pub use wavelux_linear as linear;
+pub use wavelux_meshless as meshless;
 pub use wavelux_mra as mra;
 pub use wavelux_param as param;
 pub use wavelux_quadrature as quadrature;
@@ -46,6 +47,10 @@ pub const CRATES: &[(&str, &str)] = &[
     (
         "wavelux-solver",
         "wavelet radiosity: hierarchies, links, oracles, gathering and shooting",
+    ),
+    (
+        "wavelux-meshless",
+        "meshless hierarchical basis and precomputed direct-to-indirect relighting",
     ),
     (
         "wavelux-render",
