@@ -11,8 +11,10 @@
 //! adjoint pull-push of a sparse row), then `W_ik = Σ_p B_k(p) r_p ⊗ n_p` (3×3 per
 //! channel) over the sender points `p`, so `(T₀Q)[i,k] = W_ik` and
 //! `S_2[i,·] = Σ_k W_ik T[k,·]`; the level-0 block `M₀ = W|_{k ∈ level 0}` then gives
-//! `S_{b+1}[i,·] = Σ_k M₀[i,k] S_b[k,·]` for `b >= 2`. Links with `‖S_ij‖ < ε` are
-//! dropped after each product (ours). Rows run in parallel, each in a fixed order.
+//! `S_{b+1}[i,·] = Σ_k M₀[i,k] S_b[k,·]` for `b >= 2`. Links with
+//! `‖S_ij‖ < bounce_epsilon` (default `ε/10`) are dropped after each product (ours; the
+//! seed drops at `ε`, see [`crate::MeshlessConfig::bounce_epsilon`]). Rows run in
+//! parallel, each in a fixed order.
 
 use std::time::Instant;
 
@@ -241,7 +243,7 @@ pub fn bounces(
                 }
                 s.wtouched = touched;
                 s.wtouched.clear();
-                (s.take_out(config.epsilon), m0)
+                (s.take_out(config.bounce_epsilon_value()), m0)
             },
         )
         .collect();
@@ -260,7 +262,7 @@ pub fn bounces(
                             s.add_out(*j, m, l);
                         }
                     }
-                    s.take_out(config.epsilon)
+                    s.take_out(config.bounce_epsilon_value())
                 },
             )
             .collect();

@@ -84,40 +84,15 @@ pub fn validate_lights(lights: &[Light]) -> Result<(), MeshlessError> {
 }
 
 impl DirectLighting {
-    /// Irradiance (W/m², RGB) at each point `(x, n)`.
+    /// Checks the method's parameters (lights, sample count, uniform values) and that
+    /// `query` can sample emitters when they are asked for.
     ///
     /// # Errors
-    /// [`MeshlessError::Light`] for invalid lights; [`MeshlessError::Config`] for zero
-    /// emitter samples or non-finite uniform values; [`MeshlessError::Scene`] when
-    /// emitters are asked for but the query has none to sample.
-    pub fn irradiance<Q: SurfaceQuery + ?Sized>(
-        &self,
-        query: &Q,
-        points: &[(DVec3, DVec3)],
-    ) -> Result<Vec<[f64; 3]>, MeshlessError> {
-        let off = query.offset();
+    /// As [`DirectLighting::irradiance`].
+    pub fn validate<Q: SurfaceQuery + ?Sized>(&self, query: &Q) -> Result<(), MeshlessError> {
         match self {
-            Self::Lights(lights) => {
-                validate_lights(lights)?;
-                Ok(points
-                    .par_iter()
-                    .map(|&(x, n)| {
-                        let mut e = [0.0; 3];
-                        let o = x + n * off;
-                        for l in lights {
-                            let v = l.irradiance_at(x, n);
-                            if v == [0.0; 3] || query.occluded(o, l.position) {
-                                continue;
-                            }
-                            for c in 0..3 {
-                                e[c] += v[c];
-                            }
-                        }
-                        e
-                    })
-                    .collect())
-            }
-            Self::Emitters { samples, seed } => {
+            Self::Lights(lights) => validate_lights(lights),
+            Self::Emitters { samples, .. } => {
                 if *samples == 0 {
                     return Err(MeshlessError::config("emitter samples", "must be >= 1"));
                 }
@@ -129,48 +104,95 @@ impl DirectLighting {
                                 .into(),
                     });
                 }
-                let inv_pi = std::f64::consts::FRAC_1_PI;
-                Ok(points
-                    .par_iter()
-                    .enumerate()
-                    .map(|(k, &(x, n))| {
-                        let mut rng = rng_for(*seed, TAG_NEE, k as u64);
-                        let o = x + n * off;
-                        let mut e = [0.0; 3];
-                        for _ in 0..*samples {
-                            let u = [rng.random(), rng.random(), rng.random()];
-                            let Some(s) = query.sample_emitter(u) else {
-                                continue;
-                            };
-                            let d = s.point - x;
-                            let r2 = d.length_squared();
-                            if !(r2 > 0.0) {
-                                continue;
-                            }
-                            let r = r2.sqrt();
-                            let (cx, cy) = (n.dot(d) / r, -s.normal.dot(d) / r);
-                            if cx <= 0.0 || cy <= 0.0 {
-                                continue;
-                            }
-                            let q = s.point + s.normal * off;
-                            if query.occluded(o, q) {
-                                continue;
-                            }
-                            let g = cx * cy / r2 * s.total_area * inv_pi;
-                            for c in 0..3 {
-                                e[c] += s.exitance[c] * g;
-                            }
-                        }
-                        e.map(|v| v / *samples as f64)
-                    })
-                    .collect())
+                Ok(())
             }
             Self::Uniform(v) => {
-                if !v.iter().all(|c| c.is_finite()) {
-                    return Err(MeshlessError::config("uniform irradiance", "not finite"));
+                if v.iter().all(|c| c.is_finite()) {
+                    Ok(())
+                } else {
+                    Err(MeshlessError::config("uniform irradiance", "not finite"))
                 }
-                Ok(vec![*v; points.len()])
             }
         }
+    }
+
+    /// Irradiance (W/m², RGB) at one point `(x, n)`; `key` selects the random stream of
+    /// the emitter samples (a point index, or a hash of the position). Call
+    /// [`DirectLighting::validate`] first: invalid parameters give zero here.
+    pub fn irradiance_at<Q: SurfaceQuery + ?Sized>(
+        &self,
+        query: &Q,
+        x: DVec3,
+        n: DVec3,
+        key: u64,
+    ) -> [f64; 3] {
+        let off = query.offset();
+        let o = x + n * off;
+        match self {
+            Self::Lights(lights) => {
+                let mut e = [0.0; 3];
+                for l in lights {
+                    let v = l.irradiance_at(x, n);
+                    if v == [0.0; 3] || query.occluded(o, l.position) {
+                        continue;
+                    }
+                    for c in 0..3 {
+                        e[c] += v[c];
+                    }
+                }
+                e
+            }
+            Self::Emitters { samples, seed } => {
+                if *samples == 0 {
+                    return [0.0; 3];
+                }
+                let mut rng = rng_for(*seed, TAG_NEE, key);
+                let mut e = [0.0; 3];
+                for _ in 0..*samples {
+                    let u = [rng.random(), rng.random(), rng.random()];
+                    let Some(s) = query.sample_emitter(u) else {
+                        continue;
+                    };
+                    let d = s.point - x;
+                    let r2 = d.length_squared();
+                    if !(r2 > 0.0) {
+                        continue;
+                    }
+                    let r = r2.sqrt();
+                    let (cx, cy) = (n.dot(d) / r, -s.normal.dot(d) / r);
+                    if cx <= 0.0 || cy <= 0.0 {
+                        continue;
+                    }
+                    if query.occluded(o, s.point + s.normal * off) {
+                        continue;
+                    }
+                    let g = cx * cy / r2 * s.total_area * std::f64::consts::FRAC_1_PI;
+                    for c in 0..3 {
+                        e[c] += s.exitance[c] * g;
+                    }
+                }
+                e.map(|v| v / *samples as f64)
+            }
+            Self::Uniform(v) => *v,
+        }
+    }
+
+    /// Irradiance (W/m², RGB) at each point `(x, n)` (point `k` draws from stream `k`).
+    ///
+    /// # Errors
+    /// [`MeshlessError::Light`] for invalid lights; [`MeshlessError::Config`] for zero
+    /// emitter samples or non-finite uniform values; [`MeshlessError::Scene`] when
+    /// emitters are asked for but the query has none to sample.
+    pub fn irradiance<Q: SurfaceQuery + ?Sized>(
+        &self,
+        query: &Q,
+        points: &[(DVec3, DVec3)],
+    ) -> Result<Vec<[f64; 3]>, MeshlessError> {
+        self.validate(query)?;
+        Ok(points
+            .par_iter()
+            .enumerate()
+            .map(|(k, &(x, n))| self.irradiance_at(query, x, n, k as u64))
+            .collect())
     }
 }

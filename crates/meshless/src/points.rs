@@ -180,7 +180,7 @@ impl<'a, Q: SurfaceQuery + ?Sized> Candidates<'a, Q> {
                     return Err(MeshlessError::Viewpoint {
                         viewpoint: self.viewpoint.to_array(),
                         reason: format!(
-                            "{empty_particles} particles from it deposited no candidate (blind: outside the scene, inside a closed object, or facing only black backs)"
+                            "{empty_particles} particles from it deposited no candidate (blind: outside the scene, inside a closed object, facing only black backs, or in an open scene where no path survives the first skip_bounces bounces)"
                         ),
                     });
                 }

@@ -7,6 +7,8 @@
 //!   at a ray hit) and [`SolutionField`], its implementation for a
 //!   `wavelux_solver::Solution` (the hit's `(patch, s, t)` by inverting the patch's
 //!   equal-area support map);
+//! - [`meshless_field`]: [`MeshlessField`], a `wavelux-meshless` relighting result
+//!   (direct lighting composited with the indirect expansion, Meshless §3.3);
 //! - [`render`](mod@render): images of a field, optionally with one-bounce final gather
 //!   (Glossy §5.5);
 //! - [`image`]: linear RGB images, EXR (exr crate) and tone-mapped sRGB PNG (png crate)
@@ -27,6 +29,7 @@ pub mod camera;
 pub mod export;
 pub mod field;
 pub mod image;
+pub mod meshless_field;
 pub mod reference;
 pub mod render;
 mod sampling;
@@ -34,6 +37,7 @@ mod sampling;
 pub use camera::{View, auto_camera, scene_up};
 pub use field::{EmitterSample, RadiosityField, SolutionField, SurfacePoint, side_average};
 pub use image::{ErrorMetrics, Image, ToneMap, write_atomic};
+pub use meshless_field::{Component, IndirectSource, MeshlessField};
 pub use reference::{PathTracer, ReferenceOptions, SurfaceEstimate};
 pub use render::{RenderOptions, RenderStats, render};
 

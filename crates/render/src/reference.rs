@@ -26,6 +26,13 @@
 //! from `(seed, surface or pixel, index)`, and sums are reduced in a fixed order, so
 //! results are bitwise identical for any number of threads.
 //!
+//! Punctual lights (`Scene::lights`, point and spot) are added by next-event
+//! estimation at every vertex (one shadow ray per light: `I(ω) cos θ / d²`); the walk
+//! cannot hit them, so no weighting is needed. [`PathTracer::indirect_irradiance_at`]
+//! estimates the *indirect* irradiance only (Meshless §3: what the meshless method
+//! represents): the first vertex takes neither light samples nor the emission its walk
+//! hits, so only paths with at least one bounce count.
+//!
 //! Materials: reflectance and emission times their texture means (the same constants
 //! the solver uses); a Ward lobe is ignored (diffuse transport only); directional
 //! (cosine-power) emitters are rejected; participating media are ignored.
@@ -36,7 +43,7 @@ use rand_pcg::Pcg64;
 use rayon::prelude::*;
 use serde::Serialize;
 use wavelux_geometry::{Accel, Hit, Ray};
-use wavelux_scene::{EmissionProfile, Scene, Sidedness};
+use wavelux_scene::{EmissionProfile, Light, Scene, Sidedness};
 
 use crate::area::AreaSampler;
 use crate::camera::View;
@@ -87,7 +94,7 @@ pub struct SurfaceEstimate {
 }
 
 /// An emitting side: primitive, back side?, exitance.
-type Light = (usize, bool, [f64; 3]);
+type AreaLight = (usize, bool, [f64; 3]);
 
 /// Running sums of a chunk of samples: `(Σ b, Σ b²)` per channel.
 type Sums = ([f64; 3], [f64; 3]);
@@ -104,7 +111,9 @@ pub struct PathTracer {
     samplers: Vec<Result<AreaSampler, String>>,
     /// Emitting sides for next-event estimation: (primitive, back side?, E), with the
     /// cumulative area; `None` when some emitter cannot be area-sampled.
-    lights: Option<(Vec<Light>, Vec<f64>)>,
+    lights: Option<(Vec<AreaLight>, Vec<f64>)>,
+    /// Punctual lights (next-event estimation only).
+    punctual: Vec<Light>,
 }
 
 fn side_mat(scene: &Scene, id: usize, name: &str) -> Result<SideMat, RenderError> {
@@ -211,6 +220,10 @@ impl PathTracer {
         }
         let accel = Accel::build(list).map_err(|e| RenderError::Scene(e.to_string()))?;
         let diag = accel.bounds().diagonal().length();
+        for l in &scene.lights {
+            l.validate(&scene.name)
+                .map_err(|e| RenderError::Scene(e.to_string()))?;
+        }
         Ok(Self {
             accel,
             prim_surface,
@@ -219,6 +232,7 @@ impl PathTracer {
             eps: SECONDARY_EPS_REL * diag,
             samplers,
             lights,
+            punctual: scene.lights.clone(),
         })
     }
 
@@ -254,12 +268,20 @@ impl PathTracer {
         prim: Option<u32>,
         opts: &ReferenceOptions,
         rng: &mut Pcg64,
+        indirect_only: bool,
     ) -> [f64; 3] {
         let mut out = [0.0; 3];
         let mut thr = [1.0; 3];
         let (mut o, mut nn, mut pid) = (x, n, prim);
         for depth in 0..opts.max_depth {
-            if let Some(d) = self.direct(o, nn, pid, rng) {
+            let first_skipped = indirect_only && depth == 0;
+            if !first_skipped {
+                if let Some(d) = self.direct(o, nn, pid, rng) {
+                    for c in 0..3 {
+                        out[c] += thr[c] * d[c];
+                    }
+                }
+                let d = self.punctual(o, nn, pid);
                 for c in 0..3 {
                     out[c] += thr[c] * d[c];
                 }
@@ -288,6 +310,7 @@ impl PathTracer {
                 }
                 Some(_) => 0.0,
             };
+            let w = if first_skipped { 0.0 } else { w };
             for c in 0..3 {
                 out[c] += thr[c] * m.e[c] * w;
                 thr[c] *= m.rho[c];
@@ -306,6 +329,21 @@ impl PathTracer {
             pid = Some(hit.prim);
         }
         out
+    }
+
+    /// Irradiance from the punctual lights at `x` (one shadow ray each).
+    fn punctual(&self, x: DVec3, n: DVec3, prim: Option<u32>) -> [f64; 3] {
+        let mut e = [0.0; 3];
+        for l in &self.punctual {
+            let v = l.irradiance_at(x, n);
+            if v == [0.0; 3] || self.accel.occluded(x, l.position, [prim, None]) {
+                continue;
+            }
+            for c in 0..3 {
+                e[c] += v[c];
+            }
+        }
+        e
     }
 
     /// Light-sampling estimate of the emitted irradiance at `x` (None without NEE).
@@ -353,7 +391,7 @@ impl PathTracer {
         if max3(m.rho) <= 0.0 {
             return m.e;
         }
-        let h = self.irradiance(x, n, prim, opts, rng);
+        let h = self.irradiance(x, n, prim, opts, rng, false);
         std::array::from_fn(|c| m.e[c] + m.rho[c] * h[c])
     }
 
@@ -505,6 +543,40 @@ impl PathTracer {
             for c in 0..3 {
                 s[c] += b[c];
                 s2[c] += b[c] * b[c];
+            }
+        }
+        Ok(estimate(s, s2, paths))
+    }
+
+    /// The indirect irradiance `H_ind` (W/m², RGB) at a point `x` with unit normal `n`
+    /// (the side it faces) from `paths` walks that skip the first vertex's light
+    /// samples and the emission its walk hits (module docs). `key` selects the random
+    /// streams (use the point's index).
+    ///
+    /// # Errors
+    /// [`RenderError::Invalid`] for zero paths, a non-finite point or a non-unit normal.
+    pub fn indirect_irradiance_at(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        paths: u64,
+        key: u64,
+        opts: &ReferenceOptions,
+    ) -> Result<SurfaceEstimate, RenderError> {
+        if paths == 0 {
+            return Err(invalid("paths", "must be >= 1"));
+        }
+        if !(x.is_finite() && (n.length() - 1.0).abs() < 1e-6) {
+            return Err(invalid("point", "non-finite point or non-unit normal"));
+        }
+        let mut s = [0.0; 3];
+        let mut s2 = [0.0; 3];
+        for i in 0..paths {
+            let mut rng = rng_for(opts.seed, key | (1 << 62), i);
+            let h = self.irradiance(x, n, None, opts, &mut rng, true);
+            for c in 0..3 {
+                s[c] += h[c];
+                s2[c] += h[c] * h[c];
             }
         }
         Ok(estimate(s, s2, paths))
