@@ -7,7 +7,8 @@
 //! - [`DirectLighting::Emitters`]: the scene's emitting sides by next-event estimation,
 //!   `samples` points drawn uniformly by area per sender point, each point with its own
 //!   seeded stream: `E ≈ (A/N) Σ L_e cos θ_x cos θ_y V / d²`, `L_e = E_e/π`;
-//! - [`DirectLighting::Uniform`]: the same irradiance everywhere (tests: the furnace).
+//! - [`DirectLighting::Uniform`]: the same irradiance everywhere (tests: the furnace);
+//! - [`DirectLighting::Sum`]: several of them (a scene's lights and emitters).
 
 use glam::DVec3;
 use rand::RngExt;
@@ -36,6 +37,8 @@ pub enum DirectLighting {
     },
     /// Uniform irradiance (W/m², RGB) at every point, unoccluded.
     Uniform([f64; 3]),
+    /// The sum of several methods (e.g. a scene's punctual lights and its emitters).
+    Sum(Vec<DirectLighting>),
 }
 
 /// Checks lights one by one with typed errors naming the light.
@@ -113,6 +116,7 @@ impl DirectLighting {
                     Err(MeshlessError::config("uniform irradiance", "not finite"))
                 }
             }
+            Self::Sum(parts) => parts.iter().try_for_each(|p| p.validate(query)),
         }
     }
 
@@ -174,6 +178,16 @@ impl DirectLighting {
                 e.map(|v| v / *samples as f64)
             }
             Self::Uniform(v) => *v,
+            Self::Sum(parts) => {
+                let mut e = [0.0; 3];
+                for (k, p) in parts.iter().enumerate() {
+                    let v = p.irradiance_at(query, x, n, key ^ ((k as u64) << 56));
+                    for c in 0..3 {
+                        e[c] += v[c];
+                    }
+                }
+                e
+            }
         }
     }
 

@@ -211,6 +211,22 @@ impl SceneSurfaces {
         self.sides.get(surface)?[usize::from(back)].map(|m| m.e)
     }
 
+    /// The scene surface and side (`true`: back) that the point `x` with unit normal
+    /// `n` lies on: the first hit of a ray from just above `x` back along `−n`
+    /// (`None` if nothing is within `1e-5 ×` the scene diagonal).
+    pub fn side_at(&self, x: DVec3, n: DVec3) -> Option<(usize, bool)> {
+        let d = 1e-6 * (self.bounds.1 - self.bounds.0).length();
+        let hit = self.accel.closest_hit(
+            &Ray {
+                origin: x + n * d,
+                dir: -n,
+            },
+            0.0,
+            10.0 * d,
+        )?;
+        Some((self.surface_of(hit.prim)?, !hit.front))
+    }
+
     /// Whether the scene has emitting sides.
     pub fn has_emitters(&self) -> bool {
         !self.emitters.is_empty() || !self.unsampled.is_empty()

@@ -1,5 +1,8 @@
 //! Exports of a solution: glTF 2.0 with the radiosity baked into per-vertex colours on
-//! a tessellation of the element hierarchy, and per-patch lightmap EXRs.
+//! a tessellation of the element hierarchy, and per-patch lightmap EXRs; and the same
+//! two exports of any [`RadiosityField`] on the scene's exact primitives
+//! ([`write_field_gltf`], [`write_field_lightmaps`]: one mesh per surface from the
+//! primitives' tessellation, one lightmap per primitive over its unit-square support).
 //!
 //! - glTF: every leaf element of every front-side patch becomes `sub × sub` quads (two
 //!   triangles each) of its support's image; vertices are not shared between leaves,
@@ -21,6 +24,10 @@ use std::path::{Path, PathBuf};
 use serde_json::json;
 use wavelux_solver::{Side, Solution};
 
+use wavelux_geometry::{Hit, Primitive, Ray, TessellationOptions, tessellate};
+use wavelux_scene::Scene;
+
+use crate::field::RadiosityField;
 use crate::image::{Image, write_bytes_atomic};
 use crate::{RenderError, invalid};
 
@@ -101,6 +108,17 @@ pub fn write_gltf(
         }
     }
     let scale = if scale > 0.0 { scale } else { 1.0 };
+    write_baked(&per, names, scale, path)
+}
+
+/// Writes the glTF (+ `.bin`) of baked meshes: one mesh and node per non-empty entry
+/// of `per`, named by `names`, colours `B / scale` (module docs).
+fn write_baked(
+    per: &[MeshData],
+    names: &[String],
+    scale: f64,
+    path: &Path,
+) -> Result<(), RenderError> {
     let file = path
         .file_name()
         .ok_or_else(|| invalid("path", "no file name"))?
@@ -225,6 +243,140 @@ pub fn write_lightmaps(
             for x in 0..res {
                 let (s, t) = ((x as f64 + 0.5) / res as f64, (y as f64 + 0.5) / res as f64);
                 img.pixels[y * res + x] = solution.radiosity(p, s, t);
+            }
+        }
+        img.write_exr(&path)?;
+        out.push(path);
+    }
+    Ok(out)
+}
+
+/// The field's radiosity on the front side of primitive `prim` at `x` (normal `n`):
+/// a short ray from just above `x` back along `−n` must hit `prim` itself; `None`
+/// otherwise (e.g. `x` outside a trimmed region).
+fn field_at<F: RadiosityField + ?Sized>(
+    field: &F,
+    prim: usize,
+    x: glam::DVec3,
+    n: glam::DVec3,
+) -> Option<[f64; 3]> {
+    let d = 1e-6
+        * field
+            .accel()
+            .bounds()
+            .diagonal()
+            .length()
+            .max(f64::MIN_POSITIVE);
+    let ray = Ray {
+        origin: x + n * d,
+        dir: -n,
+    };
+    let hit: Hit = field.accel().closest_hit(&ray, 0.0, 10.0 * d)?;
+    if hit.prim as usize != prim || !hit.front {
+        return None;
+    }
+    let p = field.resolve(&hit)?;
+    Some(field.radiosity(&p))
+}
+
+/// Writes `path` (`.gltf` + `.bin`) with the field's radiosity baked into the vertex
+/// colours of a tessellation of every surface's front side (triangles and
+/// parallelograms as they are, other primitives by `wavelux-geometry`'s default
+/// tessellation; vertices not shared between primitives). `field` must trace the
+/// scene's primitives in [`Scene::primitives`] order. Colours and scale as in the
+/// module docs.
+///
+/// # Errors
+/// [`RenderError::Scene`] for invalid geometry, [`RenderError::Io`] on write failures.
+pub fn write_field_gltf<F: RadiosityField + ?Sized>(
+    field: &F,
+    scene: &Scene,
+    path: &Path,
+) -> Result<(), RenderError> {
+    let prims = scene
+        .primitives(&scene.name)
+        .map_err(|e| RenderError::Scene(e.to_string()))?;
+    let mut per: Vec<MeshData> = vec![(Vec::new(), Vec::new(), Vec::new()); scene.surfaces.len()];
+    let mut scale: f64 = 0.0;
+    let opts = TessellationOptions::default();
+    for (k, (s, prim)) in prims.iter().enumerate() {
+        let (pos, nor, tris): (Vec<glam::DVec3>, Vec<glam::DVec3>, Vec<[u32; 3]>) = match prim {
+            Primitive::Triangle(t) => (t.v.to_vec(), vec![t.normal(); 3], vec![[0, 1, 2]]),
+            Primitive::Parallelogram(q) => {
+                let c = q.corners();
+                (c.to_vec(), vec![q.normal(); 4], vec![[0, 1, 2], [0, 2, 3]])
+            }
+            other => {
+                let m = tessellate(other, &opts).map_err(|e| RenderError::Scene(e.to_string()))?;
+                (m.positions, m.normals, m.indices)
+            }
+        };
+        let emitter = scene
+            .materials
+            .get(scene.surfaces[*s].material)
+            .is_some_and(|m| m.is_emitter());
+        let (vp, vc, vi) = &mut per[*s];
+        let base = vp.len() as u32;
+        let centroid = pos.iter().copied().sum::<glam::DVec3>() / pos.len().max(1) as f64;
+        for (x, n) in pos.iter().zip(&nor) {
+            // Vertices sit on edges shared with other primitives: evaluate a hair
+            // towards the centroid so that the probe ray hits this primitive.
+            let inside = *x + (centroid - *x) * 1e-6;
+            let b = field_at(field, k, inside, *n).unwrap_or([0.0; 3]);
+            if !emitter {
+                scale = scale.max(b.iter().copied().fold(0.0, f64::max));
+            }
+            vp.push([x.x as f32, x.y as f32, x.z as f32]);
+            vc.push(b);
+        }
+        for t in tris {
+            vi.extend(t.iter().map(|i| base + i));
+        }
+    }
+    let names: Vec<String> = scene.surfaces.iter().map(|s| s.name.clone()).collect();
+    write_baked(&per, &names, if scale > 0.0 { scale } else { 1.0 }, path)
+}
+
+/// Writes one `res × res` lightmap EXR per primitive of the scene into `dir`
+/// (`SURFACE.K.exr`, `K` the primitive's index within its surface), pixel = the
+/// field's radiosity (W/m²) on the front side at the texel centre of the primitive's
+/// unit-square support (black outside a trimmed region); returns the paths.
+///
+/// # Errors
+/// [`RenderError::Invalid`] for `res ∉ 1..=8192`, [`RenderError::Scene`] for invalid
+/// geometry, [`RenderError::Io`] on failures.
+pub fn write_field_lightmaps<F: RadiosityField + ?Sized>(
+    field: &F,
+    scene: &Scene,
+    dir: &Path,
+    res: usize,
+) -> Result<Vec<PathBuf>, RenderError> {
+    if !(1..=8192).contains(&res) {
+        return Err(invalid(
+            "lightmap resolution",
+            format!("{res} not in 1..=8192"),
+        ));
+    }
+    let prims = scene
+        .primitives(&scene.name)
+        .map_err(|e| RenderError::Scene(e.to_string()))?;
+    std::fs::create_dir_all(dir).map_err(|e| RenderError::Io {
+        path: dir.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let mut out = Vec::new();
+    let mut count = vec![0usize; scene.surfaces.len()];
+    for (k, (s, prim)) in prims.iter().enumerate() {
+        let piece = count[*s];
+        count[*s] += 1;
+        let path = dir.join(format!("{}.{piece}.exr", safe(&scene.surfaces[*s].name)));
+        let mut img = Image::new(res, res);
+        for y in 0..res {
+            for x in 0..res {
+                let uv =
+                    glam::DVec2::new((x as f64 + 0.5) / res as f64, (y as f64 + 0.5) / res as f64);
+                let (p, n) = (prim.eval(uv), prim.normal(uv));
+                img.pixels[y * res + x] = field_at(field, k, p, n).unwrap_or([0.0; 3]);
             }
         }
         img.write_exr(&path)?;
