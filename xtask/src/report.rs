@@ -27,6 +27,43 @@ pub enum Tolerance {
     Info,
 }
 
+/// The verdict on a row (the gate of `reproduce-figures`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// `ours` meets the row's tolerance.
+    Pass,
+    /// `ours` misses the tolerance but lies inside the deviation band declared in the
+    /// registration, with its reason, before the run.
+    KnownDeviation,
+    /// `ours` misses both (or is not finite): the command exits non-zero.
+    Fail,
+    /// Reported for context; never a pass and never a failure.
+    Info,
+}
+
+impl Status {
+    /// Label used in reports and logs.
+    pub fn label(self) -> &'static str {
+        match self {
+            Status::Pass => "pass",
+            Status::KnownDeviation => "known deviation",
+            Status::Fail => "FAIL",
+            Status::Info => "info",
+        }
+    }
+}
+
+/// A deviation declared in a registration: how far `ours` may miss the tolerance, and
+/// the specific reason (a fact a reader can check, not a catch-all).
+#[derive(Debug, Clone, Serialize)]
+pub struct Deviation {
+    /// The wider criterion (same kinds as [`Tolerance`]; never `Info`).
+    pub band: Tolerance,
+    /// Why the paper's number is not expected to be met.
+    pub reason: String,
+}
+
 /// One quantity compared between the paper and our run.
 #[derive(Debug, Clone, Serialize)]
 pub struct Row {
@@ -40,14 +77,32 @@ pub struct Row {
     pub unit: String,
     /// Pass criterion.
     pub tolerance: Tolerance,
-    /// Whether `ours` meets `tolerance` (filled in by [`Row::new`]).
-    pub ok: bool,
-    /// Why a deviation is expected or acceptable; required when `ok` is false.
-    pub note: Option<String>,
+    /// A deviation band declared with the registration (None: the tolerance alone).
+    pub deviation: Option<Deviation>,
+    /// The verdict (computed by [`Row::new`] and [`Row::deviation`]).
+    pub status: Status,
+    /// Context for the reader; never changes the status.
+    pub comment: Option<String>,
+}
+
+/// Whether `ours` meets `t` against `paper` (`Info` always does).
+fn meets(t: Tolerance, paper: Option<f64>, ours: f64) -> bool {
+    ours.is_finite()
+        && match (t, paper) {
+            (Tolerance::Relative(v), Some(p)) => (ours - p).abs() <= v * p.abs(),
+            (Tolerance::Absolute(v), Some(p)) => (ours - p).abs() <= v,
+            (Tolerance::Factor(f), Some(p)) => {
+                p > 0.0 && ours > 0.0 && (ours / p).max(p / ours) <= f
+            }
+            (Tolerance::AtMost(b), _) => ours <= b,
+            (Tolerance::AtLeast(b), _) => ours >= b,
+            (Tolerance::Info, _) => true,
+            (_, None) => false,
+        }
 }
 
 impl Row {
-    /// A row; `ok` is computed from the tolerance.
+    /// A row; its status is computed from the tolerance.
     pub fn new(
         quantity: impl Into<String>,
         paper: Option<f64>,
@@ -55,39 +110,46 @@ impl Row {
         unit: impl Into<String>,
         tolerance: Tolerance,
     ) -> Self {
-        let ok = ours.is_finite()
-            && match (tolerance, paper) {
-                (Tolerance::Relative(t), Some(p)) => (ours - p).abs() <= t * p.abs(),
-                (Tolerance::Absolute(t), Some(p)) => (ours - p).abs() <= t,
-                (Tolerance::Factor(f), Some(p)) => {
-                    p > 0.0 && ours > 0.0 && (ours / p).max(p / ours) <= f
-                }
-                (Tolerance::AtMost(b), _) => ours <= b,
-                (Tolerance::AtLeast(b), _) => ours >= b,
-                (Tolerance::Info, _) => true,
-                (_, None) => false,
-            };
+        let status = match tolerance {
+            Tolerance::Info => Status::Info,
+            t if meets(t, paper, ours) => Status::Pass,
+            _ => Status::Fail,
+        };
         Self {
             quantity: quantity.into(),
             paper,
             ours,
             unit: unit.into(),
             tolerance,
-            ok,
-            note: None,
+            deviation: None,
+            status,
+            comment: None,
         }
     }
 
-    /// Attaches an explanation (required for a row that misses its tolerance).
+    /// Declares a deviation band and its reason. A row outside its tolerance but inside
+    /// `band` is a known deviation; outside both it fails. Declaring a band on an `Info`
+    /// row, an `Info` band or an empty reason is a registration error: the row fails.
     #[must_use]
-    pub fn note(mut self, note: impl Into<String>) -> Self {
-        self.note = Some(note.into());
+    pub fn deviation(mut self, band: Tolerance, reason: impl Into<String>) -> Self {
+        let reason = reason.into();
+        let valid = !matches!(band, Tolerance::Info)
+            && !matches!(self.tolerance, Tolerance::Info)
+            && !reason.trim().is_empty();
+        self.status = match self.status {
+            _ if !valid => Status::Fail,
+            Status::Fail if meets(band, self.paper, self.ours) => Status::KnownDeviation,
+            s => s,
+        };
+        self.deviation = Some(Deviation { band, reason });
         self
     }
 
-    /// True when the row fails and nothing explains why.
-    pub fn unexplained_failure(&self) -> bool {
-        !self.ok && self.note.is_none()
+    /// Attaches context for the reader (never changes the status).
+    #[must_use]
+    pub fn comment(mut self, comment: impl Into<String>) -> Self {
+        self.comment = Some(comment.into());
+        self
     }
 }
 

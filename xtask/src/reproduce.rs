@@ -4,10 +4,12 @@
 //!
 //! With `--quick` every reproduction still computes everything, on smaller sizes, and
 //! the outputs go under `target/reproductions/quick/` so the committed reports always
-//! come from full runs. The command exits non-zero when a row misses its tolerance
-//! without a note explaining why.
+//! come from full runs. Every row is a pass (within its tolerance), a known deviation
+//! (outside the tolerance, inside a deviation band declared with its reason in the
+//! registration), a failure (outside both) or info (context, never a pass). The command
+//! exits non-zero when any row fails, in full and `--quick` runs alike.
 
-use crate::report::{Report, Row, Tolerance};
+use crate::report::{Report, Row, Status, Tolerance};
 use crate::repro::{self, Reproduction};
 use anyhow::{Context, bail};
 use serde::Serialize;
@@ -71,11 +73,17 @@ pub fn write_atomic(path: &Path, contents: &[u8]) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Runs the command.
+/// Runs the command on the registry.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let all = repro::all();
+    run_with(&repro::all(), args, &workspace_root())
+}
+
+/// Runs the command on `all` with outputs under `root` (the workspace root): full runs
+/// write `root/docs/reproductions/` and `root/target/reproductions/`, quick runs
+/// `root/target/reproductions/quick/`. Fails when any selected row fails.
+fn run_with(all: &[Reproduction], args: &Args, root: &Path) -> anyhow::Result<()> {
     if args.list {
-        for r in &all {
+        for r in all {
             println!("{:<24} {} ({}) — {}", r.id, r.source, r.seed_file, r.title);
         }
         return Ok(());
@@ -86,7 +94,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             bail!("unknown reproduction `{id}`; known: {}", known.join(", "));
         }
     }
-    let root = workspace_root();
     let (doc_dir, json_dir) = if args.quick {
         let q = root.join("target/reproductions/quick");
         (q.clone(), q)
@@ -101,7 +108,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .filter(|r| args.only.is_empty() || args.only.iter().any(|o| o == r.id))
         .collect();
 
-    let mut unexplained = Vec::new();
+    let mut failed = Vec::new();
     for r in selected {
         eprintln!(
             "reproducing {} ({}){}",
@@ -144,31 +151,35 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         write_atomic(&doc_dir.join(format!("{}.md", r.id)), md.as_bytes())?;
 
         for row in &report.rows {
-            let status = if row.ok {
-                "ok"
-            } else if row.note.is_some() {
-                "explained"
-            } else {
-                "FAIL"
-            };
             eprintln!(
-                "  [{status:>9}] {}: ours {} vs paper {}",
+                "  [{:>15}] {}: ours {} vs paper {}",
+                row.status.label(),
                 row.quantity,
                 fmt_num(row.ours),
                 row.paper.map_or("—".into(), fmt_num)
             );
-            if row.unexplained_failure() {
-                unexplained.push(format!("{}: {}", r.id, row.quantity));
+            if row.status == Status::Fail {
+                failed.push(format!(
+                    "{}: {} (ours {}, paper {}, tolerance {}{})",
+                    r.id,
+                    row.quantity,
+                    fmt_num(row.ours),
+                    row.paper.map_or("—".into(), fmt_num),
+                    fmt_tol(row.tolerance),
+                    row.deviation
+                        .as_ref()
+                        .map_or(String::new(), |d| format!(", band {}", fmt_tol(d.band)))
+                ));
             }
         }
         eprintln!("  wall time {wall:.2} s");
     }
-    write_index(&all, &doc_dir)?;
-    if !unexplained.is_empty() {
+    write_index(all, &doc_dir)?;
+    if !failed.is_empty() {
         bail!(
-            "{} row(s) missed their tolerance without a note:\n  {}",
-            unexplained.len(),
-            unexplained.join("\n  ")
+            "{} row(s) outside their tolerance and any declared deviation band:\n  {}",
+            failed.len(),
+            failed.join("\n  ")
         );
     }
     Ok(())
@@ -201,14 +212,6 @@ fn fmt_tol(t: Tolerance) -> String {
     }
 }
 
-fn status(row: &Row) -> &'static str {
-    match (row.ok, row.note.is_some()) {
-        (true, _) => "ok",
-        (false, true) => "explained",
-        (false, false) => "**FAIL**",
-    }
-}
-
 fn render_markdown(
     r: &Reproduction,
     rep: &Report,
@@ -237,7 +240,7 @@ fn render_markdown(
     }
     let _ = writeln!(
         s,
-        "## Paper vs ours\n\n| quantity | paper | ours | unit | tolerance | status | note |\n| --- | --- | --- | --- | --- | --- | --- |"
+        "## Paper vs ours\n\nStatus: **pass** within the tolerance; **known deviation** outside it but inside the deviation band declared in the registration (before the run) with the reason given; **FAIL** outside both (the command fails); **info** context only, never a pass.\n\n| quantity | paper | ours | unit | tolerance | status | deviation band and reason / comment |\n| --- | --- | --- | --- | --- | --- | --- |"
     );
     for row in &rep.rows {
         let _ = writeln!(
@@ -248,8 +251,11 @@ fn render_markdown(
             fmt_num(row.ours),
             row.unit,
             fmt_tol(row.tolerance),
-            status(row),
-            row.note.as_deref().unwrap_or("")
+            match row.status {
+                Status::Fail => "**FAIL**",
+                st => st.label(),
+            },
+            explanation(row)
         );
     }
     s.push('\n');
@@ -279,11 +285,44 @@ fn render_markdown(
     s
 }
 
+/// The band and reason of a row, then its comment, as one table cell.
+fn explanation(row: &Row) -> String {
+    let mut parts = Vec::new();
+    if let Some(d) = &row.deviation {
+        parts.push(format!("band {}: {}", fmt_tol(d.band), d.reason));
+    }
+    if let Some(c) = &row.comment {
+        parts.push(c.clone());
+    }
+    parts.join(" — ")
+}
+
+/// A row of a report's JSON as the index reads it. Reports written before the gate had
+/// `ok`/`note` instead of `status`: they are read under the gate's rule (an `info`
+/// tolerance is info, `ok` is a pass, anything else a failure: notes are not bands).
 #[derive(serde::Deserialize)]
 struct IndexRow {
     quantity: String,
-    ok: bool,
-    note: Option<String>,
+    #[serde(default)]
+    status: Option<Status>,
+    #[serde(default)]
+    ok: Option<bool>,
+    #[serde(default)]
+    tolerance: Option<serde_json::Value>,
+}
+
+impl IndexRow {
+    fn status(&self) -> Status {
+        if let Some(s) = self.status {
+            return s;
+        }
+        let info = self.tolerance.as_ref().is_some_and(|t| t["kind"] == "info");
+        match (info, self.ok) {
+            (true, _) => Status::Info,
+            (false, Some(true)) => Status::Pass,
+            _ => Status::Fail,
+        }
+    }
 }
 
 #[derive(serde::Deserialize)]
@@ -295,10 +334,15 @@ struct IndexEntry {
 fn write_index(all: &[Reproduction], doc_dir: &Path) -> anyhow::Result<()> {
     let mut s = String::from(
         "# Reproductions\n\nGenerated by `cargo xtask reproduce-figures`; do not edit by hand. \
-         Each report compares the paper's quoted numbers with ours, computed in the same run.\n\n\
-         | id | source | rows ok | explained | failed | wall time | report |\n| --- | --- | --- | --- | --- | --- | --- |\n",
+         Each report compares the paper's quoted numbers with ours, computed in the same run. \
+         A row is a **pass** (within its tolerance), a **known deviation** (outside it, inside a \
+         deviation band declared with its reason in the registration before the run), a \
+         **failure** (outside both: the command exits non-zero) or **info** (context, never a \
+         pass).\n\n\
+         | id | source | pass | known deviation | fail | info | wall time | report |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n",
     );
     let mut details = String::new();
+    let mut totals = [0usize; 4];
     for r in all {
         let path = doc_dir.join(format!("{}.json", r.id));
         let entry: Option<IndexEntry> = std::fs::read_to_string(&path)
@@ -306,29 +350,171 @@ fn write_index(all: &[Reproduction], doc_dir: &Path) -> anyhow::Result<()> {
             .and_then(|t| serde_json::from_str(&t).ok());
         match entry {
             Some(e) => {
-                let ok = e.rows.iter().filter(|x| x.ok).count();
-                let explained = e.rows.iter().filter(|x| !x.ok && x.note.is_some()).count();
-                let failed = e.rows.len() - ok - explained;
+                let count = |st: Status| e.rows.iter().filter(|x| x.status() == st).count();
+                let c = [
+                    count(Status::Pass),
+                    count(Status::KnownDeviation),
+                    count(Status::Fail),
+                    count(Status::Info),
+                ];
+                for (t, n) in totals.iter_mut().zip(c) {
+                    *t += n;
+                }
                 let _ = writeln!(
                     s,
-                    "| `{}` | {} | {ok} | {explained} | {failed} | {:.1} s | [{}.md]({}.md) |",
-                    r.id, r.source, e.wall_seconds, r.id, r.id
+                    "| `{}` | {} | {} | {} | {} | {} | {:.1} s | [{}.md]({}.md) |",
+                    r.id, r.source, c[0], c[1], c[2], c[3], e.wall_seconds, r.id, r.id
                 );
                 let _ = writeln!(details, "\n## `{}`\n", r.id);
                 for row in &e.rows {
-                    let st = match (row.ok, row.note.is_some()) {
-                        (true, _) => "pass",
-                        (false, true) => "explained",
-                        (false, false) => "FAIL",
-                    };
-                    let _ = writeln!(details, "- {st}: {}", row.quantity);
+                    let _ = writeln!(details, "- {}: {}", row.status().label(), row.quantity);
                 }
             }
             None => {
-                let _ = writeln!(s, "| `{}` | {} | — | — | — | not run | — |", r.id, r.source);
+                let _ = writeln!(
+                    s,
+                    "| `{}` | {} | — | — | — | — | not run | — |",
+                    r.id, r.source
+                );
             }
         }
     }
+    let _ = writeln!(
+        s,
+        "| **total** | | {} | {} | {} | {} | | |",
+        totals[0], totals[1], totals[2], totals[3]
+    );
     s.push_str(&details);
     write_atomic(&doc_dir.join("README.md"), s.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn repro(id: &'static str, run: fn(&Ctx) -> anyhow::Result<Report>) -> Reproduction {
+        Reproduction {
+            id,
+            source: "test",
+            seed_file: "none",
+            title: "synthetic reproduction",
+            run,
+        }
+    }
+
+    fn report(rows: Vec<Row>) -> anyhow::Result<Report> {
+        Ok(Report {
+            rows,
+            ..Report::default()
+        })
+    }
+
+    /// Tolerance ±10 %, band ±50 %, ours 2.0 against 1.0: outside both.
+    fn outside_band(_: &Ctx) -> anyhow::Result<Report> {
+        report(vec![
+            Row::new("inside", Some(1.0), 1.05, "", Tolerance::Relative(0.1)),
+            Row::new("outside", Some(1.0), 2.0, "", Tolerance::Relative(0.1))
+                .deviation(Tolerance::Relative(0.5), "declared reason"),
+        ])
+    }
+
+    /// Ours 1.3 against 1.0: outside ±10 %, inside the ±50 % band; plus an info row.
+    fn inside_band(_: &Ctx) -> anyhow::Result<Report> {
+        report(vec![
+            Row::new("deviates", Some(1.0), 1.3, "", Tolerance::Relative(0.1))
+                .deviation(Tolerance::Relative(0.5), "declared reason"),
+            Row::new("context", None, 7.0, "s", Tolerance::Info),
+        ])
+    }
+
+    fn args(only: &[&str], quick: bool) -> Args {
+        Args {
+            only: only.iter().map(|s| s.to_string()).collect(),
+            quick,
+            list: false,
+        }
+    }
+
+    #[test]
+    fn a_row_outside_its_declared_band_fails_the_command() {
+        let all = [repro("outside", outside_band), repro("inside", inside_band)];
+        for quick in [false, true] {
+            let dir = tempfile::tempdir().unwrap();
+            let err = run_with(&all, &args(&[], quick), dir.path())
+                .expect_err("a row outside its band must fail the command");
+            let msg = format!("{err:#}");
+            assert!(msg.contains("outside: outside"), "{msg}");
+            assert!(msg.contains("band ±50.000%"), "{msg}");
+            assert!(!msg.contains("deviates"), "{msg}");
+            // The reports are still written, showing the failure.
+            let sub = if quick {
+                "target/reproductions/quick"
+            } else {
+                "docs/reproductions"
+            };
+            let md = std::fs::read_to_string(dir.path().join(sub).join("outside.md")).unwrap();
+            assert!(md.contains("**FAIL**"), "{md}");
+        }
+    }
+
+    #[test]
+    fn a_row_inside_its_band_is_a_known_deviation_and_info_is_not_a_pass() {
+        let all = [repro("outside", outside_band), repro("inside", inside_band)];
+        let dir = tempfile::tempdir().unwrap();
+        run_with(&all, &args(&["inside"], false), dir.path())
+            .expect("a known deviation does not fail the command");
+        let index =
+            std::fs::read_to_string(dir.path().join("docs/reproductions/README.md")).unwrap();
+        // pass | known deviation | fail | info, separately.
+        assert!(
+            index.contains("| `inside` | test | 0 | 1 | 0 | 1 |"),
+            "{index}"
+        );
+        assert!(index.contains("- known deviation: deviates"), "{index}");
+        assert!(index.contains("- info: context"), "{index}");
+        assert!(index.contains("| `outside` | test | — |"), "{index}");
+        let md = std::fs::read_to_string(dir.path().join("docs/reproductions/inside.md")).unwrap();
+        assert!(md.contains("band ±50.000%: declared reason"), "{md}");
+    }
+
+    #[test]
+    fn row_status_follows_tolerance_then_band() {
+        let r = |ours: f64| Row::new("q", Some(2.0), ours, "", Tolerance::Factor(1.5));
+        assert_eq!(r(2.5).status, Status::Pass);
+        assert_eq!(r(4.0).status, Status::Fail);
+        let band = |ours: f64| r(ours).deviation(Tolerance::Factor(3.0), "why");
+        assert_eq!(band(2.5).status, Status::Pass);
+        assert_eq!(band(4.0).status, Status::KnownDeviation);
+        assert_eq!(band(7.0).status, Status::Fail);
+        assert_eq!(band(f64::NAN).status, Status::Fail);
+        // A band must be a real criterion with a reason, on a compared row.
+        assert_eq!(
+            r(4.0).deviation(Tolerance::Info, "why").status,
+            Status::Fail
+        );
+        assert_eq!(
+            r(4.0).deviation(Tolerance::Factor(3.0), " ").status,
+            Status::Fail
+        );
+        let info = Row::new("q", None, 1.0, "", Tolerance::Info);
+        assert_eq!(info.status, Status::Info);
+        assert_eq!(
+            info.deviation(Tolerance::AtMost(2.0), "why").status,
+            Status::Fail
+        );
+        // A comment never changes the status.
+        assert_eq!(r(4.0).comment("context").status, Status::Fail);
+    }
+
+    #[test]
+    fn reports_from_before_the_gate_count_notes_as_failures() {
+        let old = r#"{"wall_seconds": 1.0, "rows": [
+            {"quantity": "a", "ok": true, "note": null, "tolerance": {"kind": "relative", "value": 0.1}},
+            {"quantity": "b", "ok": false, "note": "explained", "tolerance": {"kind": "relative", "value": 0.1}},
+            {"quantity": "c", "ok": true, "note": null, "tolerance": {"kind": "info"}}
+        ]}"#;
+        let e: IndexEntry = serde_json::from_str(old).unwrap();
+        let st: Vec<Status> = e.rows.iter().map(IndexRow::status).collect();
+        assert_eq!(st, [Status::Pass, Status::Fail, Status::Info]);
+    }
 }

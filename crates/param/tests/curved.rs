@@ -61,6 +61,36 @@ fn paper_torus_patch_matches_section_3_1_3() {
     assert!((t.area() - PI * PI).abs() < 1e-13);
     // Exact patch area ∫∫ r (R + r cos φ) dθ dφ = (π/2)·2π.
     assert!((t.area() - FRAC_PI_2 * 2.0 * PI).abs() < 1e-13);
+    // Fig. 4: Jacobians measured by finite differences of the positions (not the
+    // analytic formula) on a 32×32 grid of cell centres: Ψ's is constant (1/c = 1 on
+    // [0, π]²), the natural map's ∝ R + r cos φ, max/min = (R + cos φ_lo)/(R + cos φ_hi).
+    let measured = |m: &Torus, uv: DVec2| {
+        let d = uv.x.min(1.0 - uv.x).min(uv.y.min(1.0 - uv.y)).min(0.1);
+        let h = 1e-3 * d;
+        let pos = |x: DVec2| m.position(x);
+        common::fd(&pos, uv, DVec2::X, h)
+            .cross(common::fd(&pos, uv, DVec2::Y, h))
+            .length()
+            / (PI * PI)
+    };
+    let (ea, nat) = (t.equal_area(), t.natural());
+    let n = 32;
+    let (mut ea_lo, mut ea_hi, mut nat_lo, mut nat_hi) = (f64::MAX, 0.0f64, f64::MAX, 0.0f64);
+    for i in 0..n {
+        for j in 0..n {
+            let uv = DVec2::new((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
+            let (a, b) = (measured(&ea, uv), measured(&nat, uv));
+            (ea_lo, ea_hi) = (ea_lo.min(a), ea_hi.max(a));
+            (nat_lo, nat_hi) = (nat_lo.min(b), nat_hi.max(b));
+        }
+    }
+    assert!(
+        (ea_lo - 1.0).abs() < 1e-9 && (ea_hi - 1.0).abs() < 1e-9,
+        "{ea_lo} {ea_hi}"
+    );
+    let phi_lo = 0.5 * PI / n as f64;
+    let closed = (2.0 + phi_lo.cos()) / (2.0 + (PI - phi_lo).cos());
+    assert!(((nat_hi / nat_lo) - closed).abs() < 1e-9 * closed);
 }
 
 #[test]

@@ -331,7 +331,7 @@ method against the Monte Carlo reference so users can choose their trade."
                 "",
                 Tolerance::Info,
             )
-            .note(format!("reference computed in {ref_time:.1} s")),
+            .comment(format!("reference computed in {ref_time:.1} s")),
         );
         let mut points: Vec<Point> = Vec::new();
         // Solver sweeps.
@@ -489,7 +489,7 @@ increasing samples). The lower-left envelope is the Pareto front.",
                         "s",
                         Tolerance::Info,
                     )
-                    .note(if ts.is_some() {
+                    .comment(if ts.is_some() {
                         "smallest wall time among the runs that reached it".to_string()
                     } else {
                         format!("not reached by the sweep (best {:.3}%)", 100.0 * best)

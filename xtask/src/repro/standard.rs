@@ -323,7 +323,7 @@ gives numbers for a 3D radiosity scene."
             "",
             Tolerance::AtMost(1e-9),
         )
-        .note("same links, GMRES to 1e-12 in both; the decompositions are the same operator"),
+        .comment("same links, GMRES to 1e-12 in both; the decompositions are the same operator"),
     );
     let lo = ratios_all.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = ratios_all.iter().copied().fold(0.0, f64::max);
@@ -335,7 +335,7 @@ gives numbers for a 3D radiosity scene."
             "",
             Tolerance::Info,
         )
-        .note(format!(
+        .comment(format!(
             "range {lo:.2}–{hi:.2}; theory (Beylkin et al., quoted by Ziegler §2.2.3 and \
              Glossy §3.5): O(n log n) vs O(n), no constant given"
         )),
@@ -348,7 +348,7 @@ gives numbers for a 3D radiosity scene."
             "",
             Tolerance::Info,
         )
-        .note(
+        .comment(
             "> 1: the standard form is denser. Paper side, Glossy §3.5 (Christensen's flatland \
                    experiments): in practice the standard form is often as sparse; no number given",
         ),
@@ -361,7 +361,7 @@ gives numbers for a 3D radiosity scene."
             "cases",
             Tolerance::Info,
         )
-        .note(
+        .comment(
             "counts cases with standard ≤ non-standard; Glossy's claim is qualitative and \
                    neither seed has numbers for radiosity scenes",
         ),
@@ -374,7 +374,7 @@ gives numbers for a 3D radiosity scene."
             "",
             Tolerance::Info,
         )
-        .note(
+        .comment(
             "sparse block matrix-vector product vs pull-gather-push; wall time on a shared machine",
         ),
     );
@@ -386,7 +386,7 @@ gives numbers for a 3D radiosity scene."
             "",
             Tolerance::Info,
         )
-        .note("excludes refinement and the one-off standard assembly (tabulated separately)"),
+        .comment("excludes refinement and the one-off standard assembly (tabulated separately)"),
     );
     for (eps, g) in sweep_growth {
         report.rows.push(
@@ -401,7 +401,7 @@ gives numbers for a 3D radiosity scene."
                 "",
                 Tolerance::Info,
             )
-            .note("> 1: the standard form's overhead grows with depth, as O(n log n) vs O(n) predicts; \
+            .comment("> 1: the standard form's overhead grows with depth, as O(n log n) vs O(n) predicts; \
                    = 1 while refinement is uniform (both forms dense)"),
         );
     }

@@ -136,13 +136,14 @@ impl Quantity {
 
 /// Rows comparing `ours_a / ours_b` with `paper_a / paper_b` for one quantity
 /// (`Tolerance::Factor(factor)`), plus the two absolute values of ours as context
-/// rows (the paper's absolute values attached, `Tolerance::Info`).
+/// rows (the paper's absolute values attached, `Tolerance::Info`). `comment` is context
+/// for the reader; it never excuses a ratio outside `factor`.
 pub fn ratio_rows(
     q: Quantity,
     (label_a, a, paper_a): (&str, &Measured, Option<f64>),
     (label_b, b, paper_b): (&str, &Measured, Option<f64>),
     factor: f64,
-    note: Option<&str>,
+    comment: Option<&str>,
 ) -> Vec<Row> {
     let (va, unit) = q.of(a);
     let (vb, _) = q.of(b);
@@ -178,8 +179,8 @@ pub fn ratio_rows(
         "",
         tol,
     );
-    if let Some(n) = note {
-        r = r.note(n);
+    if let Some(c) = comment {
+        r = r.comment(c);
     }
     rows.push(r);
     rows

@@ -8,6 +8,7 @@
 use crate::plot::{Axis, Series, Style, xy_plot};
 use crate::report::{Figure, Report, Row, Table, Tolerance};
 use crate::reproduce::Ctx;
+use wavelux::linear::{IdentityMinus, Operator, SolverOptions, Unsupported, cgnr as cgnr_solve};
 use wavelux::scene::builtin::{BoxVariant, Reflectivity, ziegler_box};
 use wavelux::solver::{
     BasisKind, Hierarchy, LinearMethod, Oracle, Prepared, SolverConfig, System, hierarchy,
@@ -63,6 +64,26 @@ const CASES: [Case; 4] = [
         refl: Reflectivity::Low,
     },
 ];
+
+/// `K` with its own application standing in for the transpose: the operator a CGNR
+/// sees when `Kᵀ` is taken to be `K` (links assumed symmetric, the reflectance applied
+/// on the receiving side in both directions). Used to test whether such a transpose
+/// explains the thesis's CGNR finding; our CGNR uses the true adjoint (tested in
+/// `wavelux-solver`'s `transpose_is_the_adjoint_of_k`).
+struct TransposeAsK<'a>(wavelux::solver::system::ChannelOperator<'a>);
+
+impl Operator for TransposeAsK<'_> {
+    fn dim(&self) -> usize {
+        self.0.dim()
+    }
+    fn apply(&self, x: &[f64], y: &mut [f64]) {
+        self.0.apply(x, y);
+    }
+    fn apply_transpose(&self, x: &[f64], y: &mut [f64]) -> Result<(), Unsupported> {
+        self.0.apply(x, y);
+        Ok(())
+    }
+}
 
 fn errors(conv: &wavelux::linear::Convergence) -> Vec<f64> {
     conv.iterations
@@ -126,6 +147,15 @@ of Picard's (unoccluded) and ≈ 1/9, 1/5 (occluded); three GMRES iterations mat
         let gmres = run(LinearMethod::Gmres { restart: 30 })?;
         let cgnr = run(LinearMethod::Cgnr)?;
         let gs = run(LinearMethod::GaussSeidel)?;
+        let cgnr_k_as_t = {
+            let opts = SolverOptions::default()
+                .with_max_iterations(iters)
+                .with_tolerance(0.0)
+                .with_initial_guess(system.emission(0))
+                .with_reference(xref.clone());
+            let op = TransposeAsK(system.channel(0));
+            errors(&cgnr_solve(&IdentityMinus::new(&op), &system.emission(0), &opts)?.history)
+        };
         let ratio3 = picard[3] / gmres[3];
         // Picard iterations (interpolated in log error) needed to reach GMRES's error
         // after 3 iterations.
@@ -146,6 +176,13 @@ of Picard's (unoccluded) and ≈ 1/9, 1/5 (occluded); three GMRES iterations mat
         }
         let cgnr_vs_picard = (1..=iters)
             .map(|k| cgnr[k] / picard[k])
+            .fold(f64::INFINITY, f64::min);
+        let cgnr_kt_vs_picard = (1..=iters)
+            .map(|k| cgnr_k_as_t.get(k).copied().unwrap_or(f64::NAN) / picard[k])
+            .fold(f64::INFINITY, f64::min);
+        // Per operator application (CGNR applies K and Kᵀ each iteration).
+        let cgnr_vs_picard_work = (1..=iters / 2)
+            .map(|k| cgnr[k] / picard[2 * k])
             .fold(f64::INFINITY, f64::min);
         report.rows.push(Row::new(
             format!(
@@ -180,6 +217,35 @@ of Picard's (unoccluded) and ≈ 1/9, 1/5 (occluded); three GMRES iterations mat
             "",
             Tolerance::AtLeast(1.0),
         ));
+        report.rows.push(
+            Row::new(
+                format!(
+                    "min_k CGNR error at k / Picard error at 2k (k = 1..5, equal work), {}",
+                    case.label
+                ),
+                None,
+                cgnr_vs_picard_work,
+                "",
+                Tolerance::Info,
+            )
+            .comment("< 1: CGNR ahead even counting its transpose application"),
+        );
+        report.rows.push(
+            Row::new(
+                format!(
+                    "min_k CGNR-with-Kᵀ:=K error / Picard error (k = 1..10), {}",
+                    case.label
+                ),
+                None,
+                cgnr_kt_vs_picard,
+                "",
+                Tolerance::Info,
+            )
+            .comment(
+                "hypothesis test: CGNR with K in place of its transpose; ≥ 1 would match \
+                 the thesis's 'no advantage over Picard'",
+            ),
+        );
         let np = prep.patches.patches.len() as f64;
         let potential = np
             * np
@@ -197,13 +263,20 @@ of Picard's (unoccluded) and ≈ 1/9, 1/5 (occluded); three GMRES iterations mat
             format!("{}", prep.patches.patches.len()),
             format!("{:.1}", t_refine),
         ]);
-        report.rows.push(Row::new(
-            format!("computed links (Ziegler's count), {}", case.label),
-            Some(PAPER_LINKS[ci]),
-            ns,
-            "links",
-            Tolerance::Factor(3.0),
-        ));
+        report.rows.push(
+            Row::new(
+                format!("computed links (Ziegler's count), {}", case.label),
+                Some(PAPER_LINKS[ci]),
+                ns,
+                "links",
+                Tolerance::Info,
+            )
+            .comment(
+                "not a result: our ε (3e-4, not the thesis's 1e-4) was chosen to give link \
+                 counts of the thesis's order, because the thesis does not state the \
+                 normalisation of its estimate",
+            ),
+        );
         for k in 0..=iters {
             table_rows.push(vec![
                 case.label.to_string(),
@@ -269,36 +342,6 @@ Gauss–Seidel (sweeps over patches) added for comparison.",
         rows: table_rows,
     });
     report.we_did = we_did_text(max_level);
-    for row in &mut report.rows {
-        if row.ok {
-            continue;
-        }
-        if row.quantity.starts_with("min_k CGNR") {
-            row.note = Some(
-                "Not matched: per iteration our CGNR (Saad's CGNR from wavelux-linear) is worse \
-than Picard in the first iterations but overtakes it after about three (see the error \
-table); per operator application (CGNR costs two) it is close to Picard. Ziegler §2.3.3 \
-describes the CGNE form; his CGNR never beat Picard. Possible causes: the variant, and \
-the spectrum of our rebuilt scenes; not investigated further."
-                    .into(),
-            );
-        } else if row.quantity.starts_with("computed links") {
-            row.note = Some(
-                "Geometry differs: Ziegler's figures are lost, our box is rebuilt from the \
-text (wavelux-scene `ziegler_box`), the ceiling with its emitting square is five \
-rectangles (four around the light plus the light) instead of one surface, and our oracle \
-samples at interval midpoints and scales by √(|R||E|); the count depends on all of these."
-                    .into(),
-            );
-        } else {
-            row.note = Some(
-                "Convergence rates depend on the operator's spectrum, which depends on the \
-rebuilt geometry (see the link-count note) and on the discretization; the qualitative \
-ranking is what we compare."
-                    .into(),
-            );
-        }
-    }
     Ok(report)
 }
 
