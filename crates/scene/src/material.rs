@@ -148,7 +148,7 @@ pub enum EmissionProfile {
     Lambertian,
     /// A directional emitter (Glossy §6's spotlights): radiance proportional to
     /// `cos^n θ`, normalised so that the exitance is still [`Material::emission`],
-    /// i.e. radiance `E (n + 1) cos^n θ / (2π)`.
+    /// i.e. radiance `E (n + 2) cos^n θ / (2π)` (`∫ L cos θ dω = E`).
     CosinePower {
         /// Exponent `n >= 0` (`n = 0` is Lambertian).
         exponent: f64,
