@@ -21,10 +21,7 @@
 
 use glam::{DVec2, DVec3};
 use rand::RngExt;
-use wavelux_geometry::{
-    Accel, ComplexPolygon, Edge2, Hit, Parallelogram, PlaneFrame, Primitive, Triangle, TrimLoop,
-    TrimRegion, TrimmedPatch,
-};
+use wavelux_geometry::{Accel, Hit};
 use wavelux_solver::{Side, Solution, Support, SupportMap};
 
 use crate::RenderError;
@@ -101,135 +98,6 @@ fn geo(e: wavelux_geometry::GeometryError) -> RenderError {
     RenderError::Scene(e.to_string())
 }
 
-/// The exact primitive a support covers: the whole image of its map, or for a virtual
-/// (masked) support only its real part — the polygon in the plane of a masked
-/// parallelogram, the trimmed patch of a curved map.
-pub(crate) fn support_primitive(sup: &Support) -> Result<Primitive, RenderError> {
-    Ok(match sup.map {
-        SupportMap::Parallelogram {
-            origin,
-            edge_u,
-            edge_v,
-        } => match &sup.mask {
-            None => {
-                Primitive::Parallelogram(Parallelogram::new(origin, edge_u, edge_v).map_err(geo)?)
-            }
-            Some(mask) => {
-                // The mask plane is the polygon's orthonormal frame F(p) = O + L p with
-                // F(Λ(s,t)) = origin + s·edge_u + t·edge_v: L = [edge_u edge_v]·[e1 e2]⁻¹.
-                let (mo, e1, e2) = mask.lambda();
-                let det = e1.perp_dot(e2);
-                if det.abs() <= f64::MIN_POSITIVE {
-                    return Err(RenderError::Scene("degenerate masked support".into()));
-                }
-                let lx = (edge_u * e2.y - edge_v * e1.y) / det;
-                let ly = (edge_v * e1.x - edge_u * e2.x) / det;
-                let o = origin - lx * mo.x - ly * mo.y;
-                let frame = PlaneFrame::from_axes(o, lx, ly).map_err(geo)?;
-                Primitive::Polygon(Box::new(
-                    ComplexPolygon::new(frame, mask.region().clone()).map_err(geo)?,
-                ))
-            }
-        },
-        SupportMap::Triangle { a, b, c } => {
-            Primitive::Triangle(Triangle::new(a, b, c).map_err(geo)?)
-        }
-        SupportMap::Disk {
-            center,
-            u,
-            v,
-            radius,
-        } => {
-            let frame = PlaneFrame::from_axes(center, u, v).map_err(geo)?;
-            let edge = Edge2::arc(DVec2::ZERO, radius, 0.0, std::f64::consts::TAU).map_err(geo)?;
-            let region =
-                TrimRegion::new(vec![TrimLoop::new(vec![edge]).map_err(geo)?]).map_err(geo)?;
-            Primitive::Polygon(Box::new(ComplexPolygon::new(frame, region).map_err(geo)?))
-        }
-        SupportMap::Mapped { .. } => {
-            let param = sup
-                .param
-                .clone()
-                .ok_or_else(|| RenderError::Scene("curved support without its map".into()))?;
-            let trim = sup.mask.as_ref().map(|m| m.region().clone());
-            Primitive::Trimmed(Box::new(TrimmedPatch::new(param, trim).map_err(geo)?))
-        }
-        #[allow(unreachable_patterns)]
-        _ => {
-            return Err(RenderError::Scene(
-                "solver support kind not known to the renderer".into(),
-            ));
-        }
-    })
-}
-
-/// Solves `d = x·e1 + y·e2` in the least-squares sense (the point is in the plane).
-fn plane_coords(d: DVec3, e1: DVec3, e2: DVec3) -> (f64, f64) {
-    let (a, b, c) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-    let (p, q) = (d.dot(e1), d.dot(e2));
-    let det = a * c - b * b;
-    if det.abs() <= f64::MIN_POSITIVE {
-        return (0.0, 0.0);
-    }
-    ((p * c - q * b) / det, (a * q - b * p) / det)
-}
-
-/// Inverse of a support map for a point on (or numerically near) its image; `uv`: the
-/// point's parameters on a curved support's map `Ψ` (the hit's parameters on the
-/// trimmed patch [`support_primitive`] builds), from which `(s, t) = Λ⁻¹(uv)`.
-pub(crate) fn invert_support(map: &SupportMap, p: DVec3, uv: DVec2) -> DVec2 {
-    let st = match *map {
-        SupportMap::Parallelogram {
-            origin,
-            edge_u,
-            edge_v,
-        } => {
-            let (s, t) = plane_coords(p - origin, edge_u, edge_v);
-            DVec2::new(s, t)
-        }
-        SupportMap::Triangle { a, b, c } => {
-            let (beta, gamma) = plane_coords(p - a, b - a, c - a);
-            let r = (beta + gamma).clamp(0.0, 1.0);
-            let t = if r > 0.0 { gamma / (beta + gamma) } else { 0.0 };
-            DVec2::new(r * r, t)
-        }
-        SupportMap::Disk {
-            center,
-            u,
-            v,
-            radius,
-        } => {
-            let d = (p - center) / radius;
-            let (x, y) = (d.dot(u), d.dot(v));
-            let rho = (x * x + y * y).sqrt().min(1.0);
-            let q = std::f64::consts::FRAC_PI_4;
-            // θ in [−π/4, 7π/4).
-            let mut th = y.atan2(x);
-            if th < -q {
-                th += std::f64::consts::TAU;
-            }
-            let (sx, sy) = if th < q {
-                (rho, rho * th / q)
-            } else if th < 3.0 * q {
-                (rho * (2.0 * q - th) / q, rho)
-            } else if th < 5.0 * q {
-                (-rho, -rho * (th - 4.0 * q) / q)
-            } else {
-                (-rho * (2.0 * q - (th - 4.0 * q)) / q, -rho)
-            };
-            DVec2::new(0.5 * (sx + 1.0), 0.5 * (sy + 1.0))
-        }
-        SupportMap::Mapped { origin, e1, e2 } => {
-            let det = e1.perp_dot(e2);
-            let d = uv - origin;
-            DVec2::new(d.perp_dot(e2) / det, e1.perp_dot(d) / det)
-        }
-        #[allow(unreachable_patterns)]
-        _ => DVec2::splat(0.5),
-    };
-    st.clamp(DVec2::ZERO, DVec2::ONE)
-}
-
 impl<'a> SolutionField<'a> {
     /// Builds the accelerator over the solution's supports.
     ///
@@ -265,7 +133,7 @@ impl<'a> SolutionField<'a> {
             .collect::<Result<_, _>>()?;
         let prims = pieces
             .iter()
-            .map(|s| support_primitive(s))
+            .map(|s| s.primitive().map_err(|e| RenderError::Scene(e.to_string())))
             .collect::<Result<Vec<_>, _>>()?;
         let pieces: Vec<SupportMap> = pieces.iter().map(|s| s.map).collect();
         let accel = Accel::build(prims).map_err(geo)?;
@@ -298,7 +166,7 @@ impl RadiosityField for SolutionField<'_> {
         let k = hit.prim as usize;
         let [front, back] = *self.sides.get(k)?;
         let patch = if hit.front { front? } else { back? };
-        let st = invert_support(&self.pieces[k], hit.point, hit.uv);
+        let st = SupportMap::invert(&self.pieces[k], hit.point, hit.uv);
         let p = &self.solution.patches[patch];
         Some(SurfacePoint {
             surface: p.surface,
@@ -404,7 +272,7 @@ mod tests {
             for i in 1..10 {
                 for j in 1..10 {
                     let (a, b) = (i as f64 / 10.0, j as f64 / 10.0);
-                    let st = invert_support(&s.map, s.point(a, b), DVec2::ZERO);
+                    let st = s.map.invert(s.point(a, b), DVec2::ZERO);
                     assert!(
                         (st - DVec2::new(a, b)).length() < 1e-9,
                         "{:?} ({a},{b}) -> {st}",
@@ -514,7 +382,7 @@ mod tests {
                 },
                 if sup.mask.is_some() { "+mask" } else { "" }
             ));
-            let prim = support_primitive(sup).unwrap();
+            let prim = sup.primitive().unwrap();
             let mut checked = 0;
             for i in 1..12 {
                 for j in 1..12 {
@@ -527,7 +395,7 @@ mod tests {
                     let ray = wavelux_geometry::Ray::new(x + 1e-3 * n, -n).unwrap();
                     let hit = prim.intersect(&ray, 0.0, 1.0).expect("hit at a real point");
                     assert!((hit.point - x).length() < 1e-6);
-                    let st = invert_support(&sup.map, hit.point, hit.uv);
+                    let st = sup.map.invert(hit.point, hit.uv);
                     assert!(
                         (st - DVec2::new(a, b)).length() < 1e-6,
                         "{:?} ({a},{b}) -> {st}",

@@ -14,7 +14,10 @@
 //!   real fractions and nearest real points of one support;
 //! - [`mask`]: exact trim masks (segments and circular arcs, Green's theorem);
 //! - [`set`]: [`build_supports`], the supports of a whole scene, one [`SideSupport`]
-//!   per lit side with its material index.
+//!   per lit side with its material index;
+//! - [`trace`]: a support's exact primitive ([`Support::primitive`]) and the inverse
+//!   of its map at a ray hit ([`SupportMap::invert`]), for the renderer and the glossy
+//!   method's rays.
 //!
 //! **Invariant:** no material model here (a side carries its material index only);
 //! no dependency on any method crate.
@@ -23,6 +26,7 @@ pub mod error;
 pub mod mask;
 pub mod piece;
 pub mod set;
+pub mod trace;
 
 pub use error::SupportError;
 pub use mask::{Coverage, Mask};
