@@ -110,6 +110,8 @@ struct SurfaceSpec {
     material: String,
     /// Makes the surface two-sided with this back material.
     back_material: Option<String>,
+    /// Direction of Ward's `α_x` (projected onto the tangent plane where used).
+    tangent: Option<[f64; 3]>,
     shape: ShapeSpec,
 }
 
@@ -774,6 +776,17 @@ fn parse_inner(
             continue;
         }
         shape.validate(file, &element)?;
+        if let Some(t) = s.tangent {
+            let t = DVec3::from_array(t);
+            if !(t.is_finite() && t.length() > 0.0) {
+                return Err(SceneError::Malformed {
+                    file: file.into(),
+                    element,
+                    what: format!("tangent {t} must be finite and non-zero"),
+                });
+            }
+            scene.tangents.insert(s.name.clone(), t);
+        }
         scene.surfaces.push(Surface {
             name: s.name.clone(),
             shape,

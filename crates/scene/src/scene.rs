@@ -86,6 +86,12 @@ pub struct Scene {
     pub defaults: BTreeMap<String, DefaultValue>,
     /// Non-fatal problems found while loading.
     pub warnings: Vec<Warning>,
+    /// Surface tangents by surface name: the direction of Ward's `α_x` (Glossy §6.2's
+    /// anisotropic reflection), projected onto the tangent plane where it is used. Most
+    /// surfaces have none (the glossy method then follows the support's `∂/∂s`). Kept
+    /// beside the surfaces rather than in [`Surface`] so that adding it broke no
+    /// constructor; [`Scene::tangent`] reads it.
+    pub tangents: BTreeMap<String, glam::DVec3>,
 }
 
 impl Scene {
@@ -114,6 +120,12 @@ impl Scene {
     /// The material with this name.
     pub fn material_id(&self, name: &str) -> Option<MaterialId> {
         self.materials.iter().position(|m| m.name == name)
+    }
+
+    /// The tangent of surface `index` (see [`Scene::tangents`]).
+    pub fn tangent(&self, index: usize) -> Option<glam::DVec3> {
+        let s = self.surfaces.get(index)?;
+        self.tangents.get(&s.name).copied()
     }
 
     /// The surface with this name.
@@ -173,7 +185,9 @@ impl Scene {
             }
             map.push(self.add_material(m));
         }
+        let mut tangents = other.tangents;
         for mut s in other.surfaces {
+            let tangent = tangents.remove(&s.name);
             s.name = format!("{prefix}{}", s.name);
             // Ids out of range (an unvalidated scene) stay out of range, so that
             // `validate` still reports them.
@@ -183,6 +197,9 @@ impl Scene {
                 *back = remap(*back);
             }
             self.add_surface(s);
+            if let (Some(t), Some(added)) = (tangent, self.surfaces.last()) {
+                self.tangents.insert(added.name.clone(), t);
+            }
         }
         for mut m in other.media {
             m.name = unique_name(
@@ -271,6 +288,24 @@ impl Scene {
                 }
             }
             s.shape.validate(file, &element)?;
+        }
+        for (name, t) in &self.tangents {
+            let element = format!("surface {name:?}");
+            if self.surface(name).is_none() {
+                return Err(SceneError::UnknownReference {
+                    file: file.into(),
+                    element: "tangents".into(),
+                    kind: "surface".into(),
+                    name: name.clone(),
+                });
+            }
+            if !(t.is_finite() && t.length() > 0.0) {
+                return Err(SceneError::Malformed {
+                    file: file.into(),
+                    element,
+                    what: format!("tangent {t} must be finite and non-zero"),
+                });
+            }
         }
         let mut seen = HashSet::new();
         for m in &self.media {

@@ -340,3 +340,48 @@ proptest! {
         let _ = parse_native(&lines.join("\n"), "fuzz.toml", None);
     }
 }
+
+#[test]
+fn surface_tangents_are_read_validated_and_prefixed() {
+    let text = r#"
+[[material]]
+name = "m"
+reflectance = 0.5
+ward = { specular = 0.2, alpha_x = 0.1, alpha_y = 0.4 }
+
+[[surface]]
+name = "brushed"
+material = "m"
+tangent = [1, 2, 0]
+shape = { type = "parallelogram", origin = [0, 0, 0], edge_u = [1, 0, 0], edge_v = [0, 1, 0] }
+
+[[surface]]
+name = "plain"
+material = "m"
+shape = { type = "parallelogram", origin = [0, 0, 1], edge_u = [1, 0, 0], edge_v = [0, 1, 0] }
+"#;
+    let s = parse_native(text, "t.toml", None).unwrap();
+    let i = s.surfaces.iter().position(|x| x.name == "brushed").unwrap();
+    assert_eq!(s.tangent(i), Some(glam::DVec3::new(1.0, 2.0, 0.0)));
+    let j = s.surfaces.iter().position(|x| x.name == "plain").unwrap();
+    assert_eq!(s.tangent(j), None);
+    // Merged under a prefix, the tangent follows its surface.
+    let mut outer = wavelux_scene::Scene::new("outer");
+    outer.merge(s, "in/");
+    let k = outer
+        .surfaces
+        .iter()
+        .position(|x| x.name == "in/brushed")
+        .unwrap();
+    assert_eq!(outer.tangent(k), Some(glam::DVec3::new(1.0, 2.0, 0.0)));
+    outer.validate("outer").unwrap();
+    // A zero tangent is a typed error naming the surface.
+    let bad = text.replace("tangent = [1, 2, 0]", "tangent = [0, 0, 0]");
+    match parse_native(&bad, "t.toml", None) {
+        Err(SceneError::Malformed { file, element, .. }) => {
+            assert_eq!(file, "t.toml");
+            assert!(element.contains("brushed"), "{element}");
+        }
+        other => panic!("{other:?}"),
+    }
+}

@@ -4,6 +4,7 @@
 //! can depend on `wavelux` alone. Each member crate can also be used on its own.
 
 pub use wavelux_geometry as geometry;
+pub use wavelux_glossy as glossy;
 pub use wavelux_linear as linear;
 pub use wavelux_meshless as meshless;
 pub use wavelux_mra as mra;
@@ -51,6 +52,10 @@ pub const CRATES: &[(&str, &str)] = &[
     (
         "wavelux-meshless",
         "meshless hierarchical basis and precomputed direct-to-indirect relighting",
+    ),
+    (
+        "wavelux-glossy",
+        "glossy radiance: 4D Haar wavelets, exitant importance, Ward BRDF, final gather",
     ),
     (
         "wavelux-render",

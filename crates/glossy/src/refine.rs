@@ -1,0 +1,410 @@
+//! The refinement oracle (Glossy §5.3) and the bottom-up rebuild of coarse
+//! coefficients (§5.4).
+//!
+//! **Candidates.** A new link `r ← s` is considered only if `r′ ← s` or `r ← s′` is
+//! already linked (§6.5, Fig. 11; we read §5.3's `r′ ← s′` as a typo for `r ← s′`),
+//! where the parent of a wavelet `ψʲᵢ` is the wavelet of the same type `ψʲ⁻¹_{⌊i/2⌋}`
+//! and the parent of a `W⁰` wavelet the root `φ`. A link into a node's 15 wavelets
+//! proposes the 16 children of that node; a link into a root `φ` proposes the root's
+//! 15 wavelets; a link from a wavelet proposes the same type on the 16 children of
+//! its node (only those that exist: a sender node without coefficients has `ℓ = 0`);
+//! a link from a root `φ` proposes the root's 15 wavelets as senders.
+//!
+//! **Value** of a candidate: `max(|ℓ_s|·est·I_r, |Γ_s|·est·R_r)` with
+//! `est = variation(parent link) × ‖b_r‖₁‖b_s‖₁` — ours: it bounds `|T_{r←s}|` by the
+//! kernel's deviation from a constant over the supports (the paper uses the variation
+//! alone) — and `I_r = ∫_{supp r} Γ(z, −ω) cos θ dA dω`, the importance arriving at
+//! the receiving support from the point `z` that `y` sees along `ω` (the paper's
+//! "integral of GΓ"), estimated with stratified rays (plus the transparent eye's own
+//! `Γ_e`, integrated over its small solid angle); `R_r` is its radiance twin. With
+//! importance off, `I ≡ R ≡ 1`. A round computes every candidate whose value is at
+//! least `fraction ×` the largest; with a largest value of 0 refinement stops.
+//! Candidates whose samples are all zero (the sender's direction cell misses the
+//! receiver, or everything is occluded) are remembered and never proposed again.
+//!
+//! **Rebuild.** After a round, links are revisited from the finest level pairs up: a
+//! link whose receiving and sending nodes both have children linked pairwise (every
+//! child pair that received samples when the link was computed has a `φ→φ`
+//! coefficient) gets its coefficients recomputed from those finer `φ→φ` values — the
+//! same Haar steps as [`crate::transport`], on 16× more samples. The paper is silent
+//! when some pairs are missing; we then keep the sampled values.
+
+use std::collections::HashMap;
+
+use glam::DVec2;
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
+use rayon::prelude::*;
+use wavelux_geometry::Ray;
+
+use crate::basis::{CHILDREN, HaarStep, NodeKey, TYPES, l1_norm};
+use crate::directions::DirectionKind;
+use crate::link::{Link, LinkSet};
+use crate::patch::GlossyScene;
+use crate::tree::{BANDS, Functions, IMPORTANCE, RADIANCE};
+
+/// `(I_r, R_r)` per receiving (patch, node).
+pub type Arriving = HashMap<(u32, NodeKey), (f64, f64)>;
+
+/// A proposed link.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Candidate {
+    /// Sending function (global id).
+    pub sender: u32,
+    /// Receiving patch.
+    pub recv_patch: u32,
+    /// Receiving node key.
+    pub recv_key: NodeKey,
+    /// Into the root `φ`.
+    pub recv_phi: bool,
+    /// Estimated `|T|` (variation × norms).
+    pub est: f64,
+}
+
+/// SplitMix64 finaliser (seeds of per-link and per-node streams).
+pub(crate) fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// A stream seed for a node `(patch, key)`.
+pub(crate) fn node_stream(seed: u64, patch: usize, key: &NodeKey) -> u64 {
+    let k = key
+        .idx
+        .iter()
+        .fold(u64::from(key.level), |a, &i| mix(a ^ u64::from(i)));
+    mix(seed ^ mix(patch as u64) ^ k)
+}
+
+/// Proposes the candidates of one round (deduplicated, existing and dead links
+/// removed), in a deterministic order.
+pub fn candidates(
+    funcs: &Functions,
+    links: &LinkSet,
+    dead: &std::collections::HashSet<(u32, u32, NodeKey, bool)>,
+    max_level: u8,
+) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    let mut push = |c: Candidate, out: &mut Vec<Candidate>| {
+        let key = (c.sender, c.recv_patch, c.recv_key, c.recv_phi);
+        if dead.contains(&key) || !seen.insert(key) {
+            return;
+        }
+        let exists = funcs.trees[c.recv_patch as usize]
+            .find(&c.recv_key)
+            .is_some_and(|n| links.contains(&(c.sender, c.recv_patch, n, c.recv_phi)));
+        if !exists {
+            out.push(c);
+        }
+    };
+    for l in &links.links {
+        let s = funcs.owner[l.sender as usize];
+        let skey = funcs.trees[s.patch as usize].keys[s.node as usize];
+        let rtree = &funcs.trees[l.recv_patch as usize];
+        let rkey = rtree.keys[l.recv_node as usize];
+        let var = f64::from(l.variation);
+        // Refine the receiver.
+        if l.recv_phi {
+            push(
+                Candidate {
+                    sender: l.sender,
+                    recv_patch: l.recv_patch,
+                    recv_key: NodeKey::ROOT,
+                    recv_phi: false,
+                    est: var * l1_norm(0) * l1_norm(skey.level),
+                },
+                &mut out,
+            );
+        } else if rkey.level < max_level {
+            for k in 0..CHILDREN {
+                if l.masks[0] & (1 << k) == 0 {
+                    continue;
+                }
+                let ck = rkey.child(k);
+                push(
+                    Candidate {
+                        sender: l.sender,
+                        recv_patch: l.recv_patch,
+                        recv_key: ck,
+                        recv_phi: false,
+                        est: var * l1_norm(ck.level) * l1_norm(skey.level),
+                    },
+                    &mut out,
+                );
+            }
+        }
+        // Refine the sender.
+        let stree = &funcs.trees[s.patch as usize];
+        let rlevel = if l.recv_phi { 0 } else { rkey.level };
+        if s.tau == 0 {
+            for t in 1..=TYPES {
+                push(
+                    Candidate {
+                        sender: stree.id(0, t),
+                        recv_patch: l.recv_patch,
+                        recv_key: rkey,
+                        recv_phi: l.recv_phi,
+                        est: var * l1_norm(rlevel) * l1_norm(0),
+                    },
+                    &mut out,
+                );
+            }
+        } else if skey.level < max_level {
+            for k in 0..CHILDREN {
+                if l.masks[1] & (1 << k) == 0 {
+                    continue;
+                }
+                if let Some(n) = stree.find(&skey.child(k)) {
+                    push(
+                        Candidate {
+                            sender: stree.id(n, usize::from(s.tau)),
+                            recv_patch: l.recv_patch,
+                            recv_key: rkey,
+                            recv_phi: l.recv_phi,
+                            est: var * l1_norm(rlevel) * l1_norm(skey.level + 1),
+                        },
+                        &mut out,
+                    );
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Largest absolute value of a function's bands in `bands`.
+pub(crate) fn magnitude(v: &[f64; BANDS], bands: std::ops::Range<usize>) -> f64 {
+    bands.map(|b| v[b].abs()).fold(0.0, f64::max)
+}
+
+/// `(I_r, R_r)`: importance and radiance arriving at the support of node `key` of
+/// `patch` (see the module docs), from `rays` stratified rays.
+pub fn arriving(
+    scene: &GlossyScene,
+    funcs: &Functions,
+    haar: &HaarStep,
+    dirs: DirectionKind,
+    patch: usize,
+    key: NodeKey,
+    rays: usize,
+    seed: u64,
+) -> (f64, f64) {
+    let p = &scene.patches[patch];
+    let mut rng = Pcg64::seed_from_u64(node_stream(seed ^ 0xA11, patch, &key));
+    let h = key.size();
+    let lo = key.lo();
+    let per = rays.div_ceil(CHILDREN).max(1);
+    let n = per * CHILDREN;
+    let vol = h.powi(4) / n as f64;
+    let eps = 1e-7 * scene.diagonal;
+    let eye = scene.eye().map(|e| &scene.patches[e]);
+    let (mut imp, mut rad) = (0.0, 0.0);
+    for k in 0..CHILDREN {
+        for _ in 0..per {
+            let u: [f64; 4] = std::array::from_fn(|a| {
+                lo[a] + 0.5 * h * (((k >> a) & 1) as f64 + rng.random::<f64>())
+            });
+            let st = DVec2::new(u[0], u[1]);
+            if !p.support.is_real(st.x, st.y) {
+                continue;
+            }
+            let (y, n_y) = p.support.point_normal(st.x, st.y);
+            let frame = p.frame(st.x, st.y);
+            let uw = DVec2::new(u[2], u[3]);
+            let wl = dirs.direction(uw);
+            let w = frame.to_world(wl);
+            let weight = wl.z * dirs.jacobian(uw) * p.support.jacobian(st.x, st.y) * vol;
+            let ray = Ray {
+                origin: y + n_y * eps,
+                dir: w,
+            };
+            if let Some(hit) = scene.accel.closest_hit(&ray, eps, f64::INFINITY)
+                && let Some((q, qst)) = scene.resolve(&hit)
+            {
+                let qf = scene.patches[q].frame(qst.x, qst.y);
+                let back = qf.to_local(-w);
+                if back.z > 0.0
+                    && let Some(qu) = dirs.inverse(back)
+                {
+                    let uq = [qst.x, qst.y, qu.x, qu.y];
+                    let g = funcs.eval(haar, q, uq, IMPORTANCE, &funcs.value);
+                    let l = funcs.eval(haar, q, uq, RADIANCE, &funcs.value);
+                    imp += weight * g.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                    rad += weight * l.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                }
+            }
+            // The transparent eye: Γ_e = 1 over its small solid angle.
+            if let Some(e) = eye
+                && let Some(fr) = e.frustum
+            {
+                let c = e.support.point(0.5, 0.5);
+                let d = c - y;
+                let r2 = d.length_squared();
+                if r2 > 0.0 {
+                    let dir = d / r2.sqrt();
+                    let lw = frame.to_local(dir);
+                    let inside = lw.z > 0.0
+                        && dirs.inverse(lw).is_some_and(|a| {
+                            a.x >= lo[2] && a.x <= lo[2] + h && a.y >= lo[3] && a.y <= lo[3] + h
+                        });
+                    let ce = fr.forward.dot(-dir);
+                    if inside
+                        && fr.contains(-dir)
+                        && ce > 0.0
+                        && !scene.accel.occluded(y, c, [p.prim, None])
+                    {
+                        let omega = e.support.area * ce / r2;
+                        // ∫ Γ_e cos θ dω over the eye's solid angle ≈ cos θ·Ω_e, then
+                        // the spatial integral by the n samples of the cell.
+                        let spatial = p.support.jacobian(st.x, st.y) * h * h / (n as f64);
+                        imp += spatial * lw.z * omega;
+                    }
+                }
+            }
+        }
+    }
+    (imp, rad)
+}
+
+/// Computes `(I, R)` for every receiving node of `cands` (parallel, deterministic).
+pub fn arriving_all(
+    scene: &GlossyScene,
+    funcs: &Functions,
+    haar: &HaarStep,
+    dirs: DirectionKind,
+    cands: &[Candidate],
+    rays: usize,
+    seed: u64,
+) -> Arriving {
+    let mut keys: Vec<(u32, NodeKey)> = cands
+        .iter()
+        .map(|c| {
+            (
+                c.recv_patch,
+                if c.recv_phi {
+                    NodeKey::ROOT
+                } else {
+                    c.recv_key
+                },
+            )
+        })
+        .collect();
+    keys.sort_unstable();
+    keys.dedup();
+    let vals: Vec<(f64, f64)> = keys
+        .par_iter()
+        .map(|&(p, k)| arriving(scene, funcs, haar, dirs, p as usize, k, rays, seed))
+        .collect();
+    keys.into_iter().zip(vals).collect()
+}
+
+/// Values `max(|ℓ_s|·est·I_r, |Γ_s|·est·R_r)` of the candidates (`arrive`: `None`
+/// when importance is off).
+pub fn values(funcs: &Functions, cands: &[Candidate], arrive: Option<&Arriving>) -> Vec<f64> {
+    cands
+        .iter()
+        .map(|c| {
+            let v = &funcs.value[c.sender as usize];
+            let l = magnitude(v, RADIANCE);
+            match arrive {
+                None => l * c.est,
+                Some(m) => {
+                    let key = (
+                        c.recv_patch,
+                        if c.recv_phi {
+                            NodeKey::ROOT
+                        } else {
+                            c.recv_key
+                        },
+                    );
+                    let (i, r) = m.get(&key).copied().unwrap_or((0.0, 0.0));
+                    let g = magnitude(v, IMPORTANCE);
+                    (l * c.est * i).max(g * c.est * r)
+                }
+            }
+        })
+        .collect()
+}
+
+/// The §5.4 rebuild (see the module docs); returns how many links were rebuilt.
+pub fn rebuild(funcs: &Functions, links: &mut LinkSet, haar: &HaarStep) -> usize {
+    let mut order: Vec<usize> = (0..links.links.len()).collect();
+    let level_sum = |l: &Link| -> u32 {
+        let s = funcs.owner[l.sender as usize];
+        let sk = funcs.trees[s.patch as usize].keys[s.node as usize];
+        let rk = funcs.trees[l.recv_patch as usize].keys[l.recv_node as usize];
+        u32::from(sk.level) + u32::from(rk.level)
+    };
+    order.sort_by_key(|&i| std::cmp::Reverse(level_sum(&links.links[i])));
+    let mut rebuilt = 0;
+    for i in order {
+        let l = &links.links[i];
+        let s = funcs.owner[l.sender as usize];
+        let stree = &funcs.trees[s.patch as usize];
+        let rtree = &funcs.trees[l.recv_patch as usize];
+        let skey = stree.keys[s.node as usize];
+        let rkey = rtree.keys[l.recv_node as usize];
+        let mut phi = [[[0.0f64; 3]; CHILDREN]; CHILDREN];
+        let mut complete = true;
+        'outer: for kr in 0..CHILDREN {
+            if l.masks[0] & (1 << kr) == 0 {
+                continue;
+            }
+            let Some(nr) = rtree.find(&rkey.child(kr)) else {
+                complete = false;
+                break;
+            };
+            for ks in 0..CHILDREN {
+                if l.masks[1] & (1 << ks) == 0 {
+                    continue;
+                }
+                let Some(ns) = stree.find(&skey.child(ks)) else {
+                    complete = false;
+                    break 'outer;
+                };
+                match links.phiphi.get(&(l.recv_patch, nr, s.patch, ns)) {
+                    Some(v) => phi[kr][ks] = v.map(f64::from),
+                    None => {
+                        complete = false;
+                        break 'outer;
+                    }
+                }
+            }
+        }
+        if !complete || l.masks[0] == 0 {
+            continue;
+        }
+        let tau_s = usize::from(s.tau);
+        let mut coef = [[0.0f32; TYPES]; 3];
+        let mut pp = [0.0f32; 3];
+        for c in 0..3 {
+            let mut v = [0.0; CHILDREN];
+            let mut w = [0.0; CHILDREN];
+            for kr in 0..CHILDREN {
+                for ks in 0..CHILDREN {
+                    v[kr] += haar.at(tau_s, ks) * phi[kr][ks][c];
+                    w[kr] += haar.at(0, ks) * phi[kr][ks][c];
+                }
+            }
+            if l.recv_phi {
+                coef[c][0] = (0..CHILDREN).map(|k| haar.at(0, k) * v[k]).sum::<f64>() as f32;
+            } else {
+                for t in 1..CHILDREN {
+                    coef[c][t - 1] =
+                        (0..CHILDREN).map(|k| haar.at(t, k) * v[k]).sum::<f64>() as f32;
+                }
+            }
+            pp[c] = (0..CHILDREN).map(|k| haar.at(0, k) * w[k]).sum::<f64>() as f32;
+        }
+        let l = &mut links.links[i];
+        l.coef = coef;
+        l.phiphi = pp;
+        let key = (l.recv_patch, l.recv_node, s.patch, s.node);
+        links.phiphi.insert(key, pp);
+        rebuilt += 1;
+    }
+    rebuilt
+}
