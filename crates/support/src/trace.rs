@@ -55,7 +55,9 @@ impl Support {
                     let (mo, e1, e2) = mask.lambda();
                     let det = e1.perp_dot(e2);
                     if det.abs() <= f64::MIN_POSITIVE {
-                        return Err(SupportError::InvalidScene("degenerate masked support".into()));
+                        return Err(SupportError::InvalidScene(
+                            "degenerate masked support".into(),
+                        ));
                     }
                     let lx = (edge_u * e2.y - edge_v * e1.y) / det;
                     let ly = (edge_v * e1.x - edge_u * e2.x) / det;
