@@ -168,16 +168,18 @@ impl TreeBasis {
         &self.integrals
     }
 
-    /// 1D values `ψ_a(x)`, `a < k`, at `x ∈ [0,1]` (clamped).
+    /// 1D values `ψ_a(x)`, `a < k`, at `x ∈ [0,1]` (clamped). Alpert's level-0
+    /// scaling functions are the orthonormal shifted Legendre polynomials
+    /// `√(2a+1) P_a(2x − 1)`: all `k` come from one three-term recurrence (the one
+    /// `wavelux-mra` evaluates them with, so the values are identical).
     pub fn eval_1d(&self, x: f64, out: &mut [f64]) {
         let x = if x.is_finite() {
             x.clamp(0.0, 1.0)
         } else {
             0.5
         };
-        for (a, o) in out.iter_mut().enumerate().take(self.k) {
-            *o = self.mra.eval_scaling(0, a, x).unwrap_or(0.0);
-        }
+        let m = out.len().min(self.k);
+        wavelux_mra::poly::shifted_legendre_all(x, &mut out[..m]);
     }
 
     /// 2D values `ψ_{a}(s, t)` (index `a = a_t·k + a_s`) at a point of the unit cell.
@@ -190,6 +192,34 @@ impl TreeBasis {
         for a2 in 0..k {
             for a1 in 0..k {
                 out[a2 * k + a1] = es[a1] * et[a2];
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The recurrence in `eval_1d` gives exactly the values of `wavelux-mra`'s
+    /// Alpert scaling functions (level 0), for every tree basis and many points.
+    #[test]
+    fn eval_1d_is_the_mra_scaling_function() {
+        for kind in [
+            BasisKind::Haar,
+            BasisKind::Multiwavelet(2),
+            BasisKind::Multiwavelet(3),
+            BasisKind::Multiwavelet(4),
+        ] {
+            let b = TreeBasis::new(kind).unwrap();
+            let mut v = [0.0; 4];
+            for i in 0..=1000 {
+                let x = i as f64 / 1000.0;
+                b.eval_1d(x, &mut v[..b.k()]);
+                for a in 0..b.k() {
+                    let m = b.mra.eval_scaling(0, a, x).unwrap();
+                    assert_eq!(v[a].to_bits(), m.to_bits(), "{kind:?} a={a} x={x}");
+                }
             }
         }
     }
