@@ -155,7 +155,7 @@ impl RefineCounts {
     }
 }
 
-fn can_split(ctx: &TransferCtx<'_>, k: &NodeKey, p: &RefineParams) -> bool {
+pub(crate) fn can_split(ctx: &TransferCtx<'_>, k: &NodeKey, p: &RefineParams) -> bool {
     if k.level >= p.max_level {
         return false;
     }
@@ -213,18 +213,7 @@ pub fn refine_link(
         est *= oracle_weight(ctx, p, &r, &e, brightness);
         if est > p.eps {
             counts.refined += 1;
-            let ar = ctx.patches[r.patch as usize].support.area * rr.h * rr.h;
-            let ae = ctx.patches[e.patch as usize].support.area * er.h * er.h;
-            let (sr, se) = match p.split {
-                SplitPolicy::Both => (cr, ce),
-                SplitPolicy::Larger => {
-                    if cr && (ar >= ae || !ce) {
-                        (true, false)
-                    } else {
-                        (false, true)
-                    }
-                }
-            };
+            let (sr, se) = split_sides(ctx, p, &r, &e, &rr, &er, cr, ce);
             let rs: Vec<NodeKey> = if sr {
                 (0..4).map(|c| r.child(c)).collect()
             } else {
@@ -359,6 +348,99 @@ pub fn rerefine(
         counts.add(&c);
     }
     (links, counts)
+}
+
+/// Splits the marked links one level (the a-posteriori refinement step of
+/// [`crate::target`]): a marked link is replaced by the links between the children of
+/// the elements the split policy selects (both when both may split, else the one that
+/// may), with their blocks and without consulting the oracle; pairs that do not face
+/// each other are dropped. Unmarked links, and marked ones whose elements may not be
+/// split (level or area limit), are kept as they are. `marked[i]` refers to
+/// `links[i]`. The output keeps the input order (children in place of their parent),
+/// so it does not depend on the thread count.
+pub fn split_marked(
+    ctx: &TransferCtx<'_>,
+    p: &RefineParams,
+    links: Vec<LinkRec>,
+    marked: &[bool],
+) -> (Vec<LinkRec>, RefineCounts) {
+    let parts: Vec<(Vec<LinkRec>, RefineCounts)> = links
+        .into_par_iter()
+        .zip(marked.par_iter())
+        .map(|(l, &m)| {
+            let mut counts = RefineCounts::default();
+            let cr = can_split(ctx, &l.r, p);
+            let ce = can_split(ctx, &l.e, p);
+            if !m || !(cr || ce) {
+                if l.r.level == 0 && l.e.level == 0 {
+                    counts.unrefined_roots += 1;
+                }
+                return (vec![l], counts);
+            }
+            counts.refined += 1;
+            let (rr, er) = (l.r.region(), l.e.region());
+            let (sr, se) = split_sides(ctx, p, &l.r, &l.e, &rr, &er, cr, ce);
+            let rs: Vec<NodeKey> = if sr {
+                (0..4).map(|c| l.r.child(c)).collect()
+            } else {
+                vec![l.r]
+            };
+            let es: Vec<NodeKey> = if se {
+                (0..4).map(|c| l.e.child(c)).collect()
+            } else {
+                vec![l.e]
+            };
+            let pairs: Vec<(NodeKey, NodeKey)> = rs
+                .iter()
+                .flat_map(|a| es.iter().map(move |b| (*a, *b)))
+                .collect();
+            let v: Vec<LinkRec> = pairs
+                .par_iter()
+                .filter_map(|(a, b)| {
+                    let (ar, br) = (a.region(), b.region());
+                    ctx.facing(&ar, &br).then(|| LinkRec {
+                        r: *a,
+                        e: *b,
+                        block: ctx.block(&ar, &br),
+                    })
+                })
+                .collect();
+            (v, counts)
+        })
+        .collect();
+    let mut out = Vec::new();
+    let mut counts = RefineCounts::default();
+    for (v, c) in parts {
+        out.extend(v);
+        counts.add(&c);
+    }
+    (out, counts)
+}
+
+/// Which sides of a link the split policy splits, given which may split.
+#[allow(clippy::too_many_arguments)]
+fn split_sides(
+    ctx: &TransferCtx<'_>,
+    p: &RefineParams,
+    r: &NodeKey,
+    e: &NodeKey,
+    rr: &Region,
+    er: &Region,
+    cr: bool,
+    ce: bool,
+) -> (bool, bool) {
+    match p.split {
+        SplitPolicy::Both => (cr, ce),
+        SplitPolicy::Larger => {
+            let ar = ctx.patches[r.patch as usize].support.area * rr.h * rr.h;
+            let ae = ctx.patches[e.patch as usize].support.area * er.h * er.h;
+            if cr && (ar >= ae || !ce) {
+                (true, false)
+            } else {
+                (false, true)
+            }
+        }
+    }
 }
 
 /// The compiled hierarchy: nodes ordered by `(level, patch, iy, ix)` (each level a
@@ -507,6 +589,19 @@ impl Hierarchy {
             by_emitter,
             emit_offsets,
         }
+    }
+
+    /// The links in the compiled (receiver) order, the order of
+    /// [`crate::ErrorEstimate::link_error`].
+    pub fn links(&self) -> Vec<LinkRec> {
+        let nn = self.n * self.n;
+        (0..self.link_count())
+            .map(|l| LinkRec {
+                r: self.keys[self.link_receiver[l] as usize],
+                e: self.keys[self.link_emitter[l] as usize],
+                block: self.blocks[l * nn..][..nn].to_vec(),
+            })
+            .collect()
     }
 
     /// Number of nodes.

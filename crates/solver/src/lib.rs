@@ -23,6 +23,11 @@
 //!   deduplicated refinement, push/pull by the CDV two-scale rows, its own system;
 //! - [`system`]: matrix-free `K`, `Kᵀ` and Gauss–Seidel sweeps (rayon, deterministic);
 //! - [`solution`]: [`Solution`], [`Energy`], [`Statistics`];
+//! - [`estimate`]: the a-posteriori error estimate (fine-quadrature residual
+//!   transported by the discrete operator) per leaf, per link and for the whole
+//!   function;
+//! - [`target`]: solving to a target error (refine–solve–estimate rounds with
+//!   Dörfler marking of the links' error indicators);
 //! - [`standard`]: the standard decomposition of the same links (tree wavelet basis,
 //!   one assembled sparse matrix; Ziegler §2.2.3, Glossy §3.5), chosen by
 //!   [`SolverConfig::decomposition`];
@@ -35,6 +40,7 @@
 pub mod basis;
 pub mod cdv;
 pub mod error;
+pub mod estimate;
 pub mod hierarchy;
 pub mod mask;
 pub mod shoot;
@@ -42,6 +48,7 @@ pub mod solution;
 pub mod standard;
 pub mod support;
 pub mod system;
+pub mod target;
 pub mod transfer;
 
 use std::time::{Duration, Instant};
@@ -58,12 +65,14 @@ use wavelux_scene::Scene;
 
 pub use basis::{BasisKind, TreeBasis};
 pub use error::SolverError;
+pub use estimate::{ErrorEstimate, EstimateOptions, estimate};
 pub use hierarchy::{Hierarchy, LinkRec, NodeKey, Oracle, RefineParams, SplitPolicy};
 pub use mask::{Coverage, Mask};
 pub use solution::{Energy, Solution, Statistics};
 pub use standard::{Decomposition, StandardSystem};
 pub use support::{Patch, PatchSet, Side, Support, SupportMap, build_patches, build_patches_with};
 pub use system::System;
+pub use target::{Choice, Round, TargetConfig, TargetOutcome, solve_to_target};
 pub use transfer::{TransferCtx, TransferOptions, Visibility};
 pub use wavelux_param::ParamKind;
 
@@ -657,6 +666,114 @@ pub fn project_solution(
     x
 }
 
+/// The brightness of a node for the brightness oracle: the largest channel of its
+/// average radiosity in `prev` (its deepest existing ancestor's), else the largest
+/// emitted exitance of its patch (W/m²).
+pub(crate) fn brightness(prev: Option<&Solution>, patches: &[Patch], k: &NodeKey) -> f64 {
+    match prev {
+        Some(s) => {
+            let mut key = *k;
+            loop {
+                if let Some(v) = s.node_average(&key) {
+                    break v.iter().fold(0.0f64, |a, &b| a.max(b));
+                }
+                match key.parent() {
+                    Some(p) => key = p,
+                    None => break 0.0,
+                }
+            }
+        }
+        None => patches[k.patch as usize]
+            .emission
+            .iter()
+            .fold(0.0f64, |a, &b| a.max(b)),
+    }
+}
+
+/// Compiles `links` into a system (plus the standard form when configured), solves
+/// every channel (warm-started from `prev` projected onto the new leaves, else from
+/// the emission) to relative residual `tolerance` and returns the solution. Compile
+/// and assembly time go into `stats.time_refine`, the solves into `stats.time_solve`;
+/// the counts of the hierarchy and the context's kernel and ray totals are updated.
+///
+/// # Errors
+/// [`SolverError::Linear`] if a linear solve fails, [`SolverError`] from the standard
+/// assembly.
+pub(crate) fn solve_links(
+    prep: &Prepared,
+    ctx: &TransferCtx<'_>,
+    links: &[LinkRec],
+    prev: Option<&Solution>,
+    stats: &mut Statistics,
+    tolerance: f64,
+) -> Result<Solution, SolverError> {
+    let cfg = &prep.config;
+    let patches = &prep.patches.patches;
+    let t_ref = Instant::now();
+    let h = Hierarchy::compile(prep.basis.n(), patches.len(), links);
+    let system = System::new(h, &prep.basis, patches);
+    let standard = match cfg.decomposition {
+        Decomposition::Standard => Some(StandardSystem::from_system(&system, &prep.basis)?),
+        _ => None,
+    };
+    stats.time_refine += t_ref.elapsed();
+    let t_sol = Instant::now();
+    let grey = prep.is_grey();
+    let mut leaf_b: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::new());
+    let mut conv = Vec::new();
+    stats.iterations.clear();
+    let channels = if grey { 1 } else { 3 };
+    for ch in 0..channels {
+        let x0 = prev.map(|p| project_solution(p, &system, &prep.basis, ch));
+        let (x, c) = match &standard {
+            Some(s) => s.solve_channel(
+                ch,
+                cfg.linear_method,
+                cfg.max_iterations,
+                tolerance,
+                x0,
+                None,
+            )?,
+            None => solve_channel(
+                &system,
+                ch,
+                cfg.linear_method,
+                cfg.max_iterations,
+                tolerance,
+                x0,
+                None,
+            )?,
+        };
+        stats.iterations.push(c.iterations.len() - 1);
+        conv.push(c);
+        leaf_b[ch] = x;
+    }
+    if grey {
+        leaf_b[1] = leaf_b[0].clone();
+        leaf_b[2] = leaf_b[0].clone();
+    }
+    drop(standard);
+    stats.time_solve += t_sol.elapsed();
+    stats.elements = system.h.node_count();
+    stats.leaves = system.h.leaves.len();
+    stats.links = system.h.link_count();
+    [stats.cells_empty, stats.cells_partial, stats.cells_full] = system.coverage_counts;
+    stats.kernel_evals = ctx.kernel_evals.load(std::sync::atomic::Ordering::Relaxed);
+    stats.rays = ctx.rays.load(std::sync::atomic::Ordering::Relaxed);
+    stats.bytes = system.h.bytes()
+        + std::mem::size_of_val(links)
+        + links.iter().map(|l| l.block.capacity() * 8).sum::<usize>();
+    Ok(Solution::new(
+        patches.clone(),
+        prep.patches.by_surface.clone(),
+        system,
+        prep.basis.clone(),
+        leaf_b,
+        stats.clone(),
+        conv,
+    ))
+}
+
 /// Refines, assembles and solves (see the crate docs).
 ///
 /// # Errors
@@ -685,106 +802,31 @@ pub fn solve_prepared(prep: &Prepared) -> Result<Solution, SolverError> {
         time_setup: prep.setup_time,
         ..Statistics::default()
     };
-    let grey = prep.is_grey();
     let patches = &prep.patches.patches;
     for stage in 0..stages {
         let eps = cfg.eps * factor.powi((stages - 1 - stage) as i32);
         let params = prep.refine_params(eps);
         let t_ref = Instant::now();
-        let bright = |k: &NodeKey| -> f64 {
-            match &prev {
-                Some(s) => {
-                    let mut key = *k;
-                    loop {
-                        if let Some(v) = s.node_average(&key) {
-                            break v.iter().fold(0.0f64, |a, &b| a.max(b));
-                        }
-                        match key.parent() {
-                            Some(p) => key = p,
-                            None => break 0.0,
-                        }
-                    }
-                }
-                None => patches[k.patch as usize]
-                    .emission
-                    .iter()
-                    .fold(0.0f64, |a, &b| a.max(b)),
-            }
-        };
+        let bright = |k: &NodeKey| brightness(prev.as_ref(), patches, k);
         let (new_links, counts) = if stage == 0 {
             hierarchy::refine_all(&ctx, &params, &bright)
         } else {
             hierarchy::rerefine(&ctx, &params, std::mem::take(&mut links), &bright)
         };
         links = new_links;
-        let h = Hierarchy::compile(prep.basis.n(), patches.len(), &links);
-        let system = System::new(h, &prep.basis, patches);
-        let standard = match cfg.decomposition {
-            Decomposition::Standard => Some(StandardSystem::from_system(&system, &prep.basis)?),
-            _ => None,
-        };
-        stats.time_refine += t_ref.elapsed();
         stats.refined_links += counts.refined;
         stats.oracle_evals += counts.oracle_evals;
         stats.nonstandard_links = counts.refined + counts.unrefined_roots;
-        let t_sol = Instant::now();
-        let mut leaf_b: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::new());
-        let mut conv = Vec::new();
-        stats.iterations.clear();
-        let channels = if grey { 1 } else { 3 };
-        for ch in 0..channels {
-            let x0 = prev
-                .as_ref()
-                .map(|p| project_solution(p, &system, &prep.basis, ch));
-            let (x, c) = match &standard {
-                Some(s) => s.solve_channel(
-                    ch,
-                    cfg.linear_method,
-                    cfg.max_iterations,
-                    cfg.tolerance,
-                    x0,
-                    None,
-                )?,
-                None => solve_channel(
-                    &system,
-                    ch,
-                    cfg.linear_method,
-                    cfg.max_iterations,
-                    cfg.tolerance,
-                    x0,
-                    None,
-                )?,
-            };
-            stats.iterations.push(c.iterations.len() - 1);
-            conv.push(c);
-            leaf_b[ch] = x;
-        }
-        if grey {
-            leaf_b[1] = leaf_b[0].clone();
-            leaf_b[2] = leaf_b[0].clone();
-        }
-        drop(standard);
-        stats.time_solve += t_sol.elapsed();
+        stats.time_refine += t_ref.elapsed();
         stats.stages = stage + 1;
-        stats.elements = system.h.node_count();
-        stats.leaves = system.h.leaves.len();
-        stats.links = system.h.link_count();
-        [stats.cells_empty, stats.cells_partial, stats.cells_full] = system.coverage_counts;
-        stats.kernel_evals = ctx.kernel_evals.load(std::sync::atomic::Ordering::Relaxed);
-        stats.rays = ctx.rays.load(std::sync::atomic::Ordering::Relaxed);
-        stats.bytes = system.h.bytes()
-            + links.capacity() * std::mem::size_of::<LinkRec>()
-            + links.iter().map(|l| l.block.capacity() * 8).sum::<usize>();
-        let basis = prep.basis.clone();
-        prev = Some(Solution::new(
-            patches.clone(),
-            prep.patches.by_surface.clone(),
-            system,
-            basis,
-            leaf_b,
-            stats.clone(),
-            conv,
-        ));
+        prev = Some(solve_links(
+            prep,
+            &ctx,
+            &links,
+            prev.as_ref(),
+            &mut stats,
+            cfg.tolerance,
+        )?);
     }
     prev.ok_or_else(|| SolverError::InvalidScene("no stage ran".into()))
 }

@@ -107,7 +107,8 @@ pub struct Region {
 }
 
 impl Region {
-    fn split(&self) -> [Region; 4] {
+    /// The four quadrants, `c = cy·2 + cx`.
+    pub(crate) fn split(&self) -> [Region; 4] {
         let h = 0.5 * self.h;
         std::array::from_fn(|c| Region {
             patch: self.patch,
@@ -280,8 +281,21 @@ impl<'a> TransferCtx<'a> {
         self.basis
     }
 
+    /// The visibility mode of transfer blocks.
+    pub fn visibility_mode(&self) -> Visibility {
+        self.visibility
+    }
+
+    /// Whether `x` (on `pr`) and `y` (on `pe`) see each other; counts the ray.
     #[inline]
-    fn visible(&self, x: DVec3, pr: &Patch, y: DVec3, pe: &Patch, rays: &mut u64) -> bool {
+    pub(crate) fn visible(
+        &self,
+        x: DVec3,
+        pr: &Patch,
+        y: DVec3,
+        pe: &Patch,
+        rays: &mut u64,
+    ) -> bool {
         *rays += 1;
         let (c, s) = self.frame;
         !self
@@ -901,7 +915,13 @@ fn sample_points(p: &Patch, r: &Region) -> Vec<DVec3> {
 
 /// Weight of point `(ks, kt)` of a tensor rule `(x, w, c)` on an emitter sub-square:
 /// rule weight × area element × real fraction of the point's cell `[c_k, c_{k+1}]²`.
-fn weight_in(pe: &Patch, es: &Region, rule: (&[f64], &[f64], &[f64]), ks: usize, kt: usize) -> f64 {
+pub(crate) fn weight_in(
+    pe: &Patch,
+    es: &Region,
+    rule: (&[f64], &[f64], &[f64]),
+    ks: usize,
+    kt: usize,
+) -> f64 {
     let (x, w, c) = rule;
     let (s, t) = (es.s0 + es.h * x[ks], es.t0 + es.h * x[kt]);
     let mut wt = w[ks] * w[kt] * es.h * es.h * pe.support.jacobian(s, t);

@@ -1,0 +1,696 @@
+//! A-posteriori error estimate of a gathered solution, per element, per link and for
+//! the whole radiosity function.
+//!
+//! The Galerkin solution `B_h` of `B = E + K B` (Ziegler §2.1, `K = ρ ∫ G V ·`)
+//! leaves the residual `r = E + K B_h − B_h` of the *continuous* equation; the error
+//! `e = B − B_h` solves `e = r + K e`. We evaluate `r` at `p × p` Gauss points of
+//! every leaf, with `K B_h` computed by a finer quadrature than the transfer blocks:
+//! for every link `(R, E)` covering the leaf, the emitter's radiosity (its pulled
+//! coefficients, the same function the link transports) is integrated point by point
+//! with a `q × q` Gauss rule on pieces of `E` split until each piece is well separated
+//! from the point (`dist ≥ near · radius`), with one shadow ray per point pair. The
+//! links of the hierarchy partition every receiver–emitter pair once, so their sum is
+//! the whole irradiance. The transported part `y = K e = K r + K y` is approximated
+//! on the discrete space, `y ≈ (I − K_h)⁻¹ K_h P r` (`P` the projection onto the leaf
+//! bases, one linear solve with the existing links), and `e ≈ r + y`.
+//!
+//! The difference between a link's fine transport and what its block delivers,
+//! `Δ_l(x) = ∫_E G V B_E dA − Σ_a (T B_E)_a φ_a(x)`, integrated as `∫_R ρ |Δ_l| dA`,
+//! is the link's *indicator* `η_l` (W): the error that refining this link would remove
+//! (kernel variation over the pair, receiver projection, the block's quadrature and
+//! its visibility sampling). This is the "next level the oracle would add" measured
+//! rather than bounded; [`crate::target`] refines the links with the largest `η_l`.
+//!
+//! What the estimate does not see: the error of representing the emitter's radiosity
+//! by its pulled coefficients on `E` (the finer leaves under `E` are averaged, as the
+//! link averages them), transport that no link carries (pairs dropped as not facing,
+//! where the kernel vanishes), and errors of the fine quadrature itself (shadow
+//! boundaries sampled by `q²` rays per point and piece). Norms are over real points
+//! (VirtualMesh §4: virtual points of masked supports neither count nor emit) in true
+//! area; the relative error is `Σ_c ∫|e_c| / Σ_c ∫|B_h,c − E_c|` (relative to the
+//! reflected radiosity, as the CLI's Monte Carlo check).
+
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+use rayon::prelude::*;
+use wavelux_quadrature::GaussLegendre;
+
+use crate::error::SolverError;
+use crate::mask::Coverage;
+use crate::solution::Solution;
+use crate::support::Patch;
+use crate::transfer::{Region, TransferCtx, Visibility, kernel, weight_in};
+use crate::{LinearMethod, linear_solve};
+
+/// Options of [`estimate`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EstimateOptions {
+    /// Gauss points per axis and leaf at which the residual is evaluated (`0`: `max(k
+    /// + 1, 3)` for a basis with `k` functions per axis; else `1..=8`).
+    pub receiver_points: usize,
+    /// Gauss points per axis on each emitter piece (`0`: 3; else `1..=8`).
+    pub emitter_points: usize,
+    /// Separation at which an emitter piece is integrated without splitting:
+    /// `dist(point, piece centre) ≥ near · piece radius` (`≥ 1`).
+    pub near: f64,
+    /// Deepest split of an emitter piece around a point (`≤ 10`).
+    pub max_depth: u32,
+    /// Extra splits of an emitter piece whose shadow rays disagree (a shadow
+    /// boundary crosses it), each quartering the piece (`≤ 6`).
+    pub vis_depth: u32,
+    /// Whether to add the transported part `(I − K_h)⁻¹ K_h P r` (else `e ≈ r`).
+    pub propagate: bool,
+}
+
+impl Default for EstimateOptions {
+    fn default() -> Self {
+        Self {
+            receiver_points: 0,
+            emitter_points: 0,
+            near: 1.2,
+            max_depth: 4,
+            vis_depth: 3,
+            propagate: true,
+        }
+    }
+}
+
+impl EstimateOptions {
+    /// Checks the documented ranges.
+    ///
+    /// # Errors
+    /// [`SolverError::InvalidConfig`] naming the first bad field.
+    pub fn validate(&self) -> Result<(), SolverError> {
+        let bad = |field, value: String, reason| SolverError::InvalidConfig {
+            field,
+            value,
+            reason,
+        };
+        if self.receiver_points > 8 {
+            return Err(bad(
+                "estimate.receiver_points",
+                self.receiver_points.to_string(),
+                "must be in 0..=8",
+            ));
+        }
+        if self.emitter_points > 8 {
+            return Err(bad(
+                "estimate.emitter_points",
+                self.emitter_points.to_string(),
+                "must be in 0..=8",
+            ));
+        }
+        if !(self.near.is_finite() && self.near >= 1.0) {
+            return Err(bad(
+                "estimate.near",
+                self.near.to_string(),
+                "must be finite and >= 1",
+            ));
+        }
+        if self.vis_depth > 6 {
+            return Err(bad(
+                "estimate.vis_depth",
+                self.vis_depth.to_string(),
+                "must be <= 6",
+            ));
+        }
+        if self.max_depth > 10 {
+            return Err(bad(
+                "estimate.max_depth",
+                self.max_depth.to_string(),
+                "must be <= 10",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The estimate of [`estimate`].
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ErrorEstimate {
+    /// `Σ_c ∫|e_c| dA / Σ_c ∫|B_h,c − E_c| dA` over real points of every patch
+    /// (dimensionless; `0` when nothing is reflected).
+    pub relative_l1: f64,
+    /// `∫|e_c| dA` per channel (W).
+    pub error_l1: [f64; 3],
+    /// `∫|r_c| dA` per channel (W): the local part (the residual alone).
+    pub residual_l1: [f64; 3],
+    /// `∫|B_h,c − E_c| dA` per channel (W), the normaliser.
+    pub reflected_l1: [f64; 3],
+    /// `∫_leaf Σ_c |e_c| dA` per leaf, in the order of `Hierarchy::leaves` (W).
+    pub leaf_error: Vec<f64>,
+    /// Indicator `η_l = ∫_R ρ Σ_c |Δ_l,c| dA` per link, in the receiver order of the
+    /// compiled hierarchy (W).
+    pub link_error: Vec<f64>,
+    /// Kernel evaluations of the fine quadrature.
+    pub kernel_evals: u64,
+    /// Shadow rays of the fine quadrature.
+    pub rays: u64,
+    /// Residual points evaluated.
+    pub points: u64,
+    /// Links whose transport was evaluated at every leaf point under the receiver
+    /// (partly visible or near pairs); the others are interpolated from the
+    /// receiver's own points.
+    pub detailed_links: u64,
+    /// Wall time.
+    pub time: Duration,
+}
+
+/// One residual point of a leaf.
+#[derive(Debug, Clone, Copy)]
+struct Point {
+    s: f64,
+    t: f64,
+    x: DVec3,
+    n: DVec3,
+    /// ṽ (visibility point, VirtualMesh §4.1).
+    v: DVec3,
+    /// Galerkin weight (parameter measure: Gauss weight × leaf area).
+    w: f64,
+    /// True-area weight of the real part (Jacobian × real fraction of its cell).
+    wr: f64,
+}
+
+/// Counters of the fine quadrature.
+#[derive(Debug, Clone, Copy, Default)]
+struct Tally {
+    evals: u64,
+    rays: u64,
+    /// Shadow rays that found the pair visible / blocked.
+    visible: u64,
+    blocked: u64,
+}
+
+impl Tally {
+    fn add(&mut self, o: &Tally) {
+        self.evals += o.evals;
+        self.rays += o.rays;
+        self.visible += o.visible;
+        self.blocked += o.blocked;
+    }
+}
+
+/// A link's fine transport at its receiver's residual points.
+struct LinkFit {
+    /// `∫_E G V B_E dA` per point (the `p × p` Gauss points of `R`) and channel.
+    f: Vec<[f64; 3]>,
+    /// Whether the leaves under `R` need their own evaluation (the pair is partly
+    /// visible or near, so the transport is not smooth over `R`) instead of the
+    /// interpolation of `f`.
+    detailed: bool,
+    /// The link's indicator `η_l` (W).
+    eta: f64,
+    tally: Tally,
+}
+
+/// A Gauss rule on `[0, 1]`: `(points, weights, cumulative weights)`.
+type Rule = (Vec<f64>, Vec<f64>, Vec<f64>);
+
+/// The `q`-point Gauss rule on `[0, 1]`.
+fn rule(q: usize) -> Result<Rule, SolverError> {
+    let g = GaussLegendre::new(q).map_err(|e| SolverError::Dependency {
+        what: "quadrature",
+        message: e.to_string(),
+    })?;
+    let (x, w) = g.unit();
+    let mut c = vec![0.0; q + 1];
+    for i in 0..q {
+        c[i + 1] = c[i] + w[i];
+    }
+    c[q] = 1.0;
+    Ok((x, w, c))
+}
+
+/// The residual points of a leaf region.
+fn leaf_points(p: &Patch, r: &Region, g: &Rule) -> Vec<Point> {
+    let q = g.0.len();
+    let a = p.support.area * r.h * r.h;
+    let mut pts = Vec::with_capacity(q * q);
+    for jt in 0..q {
+        for js in 0..q {
+            let (s, t) = (r.s0 + r.h * g.0[js], r.t0 + r.h * g.0[jt]);
+            let (x, n) = p.support.point_normal(s, t);
+            let v = if p.support.mask.is_some() {
+                p.support.visibility_point(s, t)
+            } else {
+                x
+            };
+            pts.push(Point {
+                s,
+                t,
+                x,
+                n,
+                v,
+                w: g.1[js] * g.1[jt] * a,
+                wr: weight_in(p, r, (&g.0, &g.1, &g.2), js, jt),
+            });
+        }
+    }
+    pts
+}
+
+/// Context of the fine point-to-region gather.
+struct Fine<'a> {
+    ctx: &'a TransferCtx<'a>,
+    rule: Rule,
+    near: f64,
+    max_depth: u32,
+    vis_depth: u32,
+    vis: bool,
+}
+
+impl Fine<'_> {
+    /// `Σ_b coef_b ∫_piece G V φ_b dA` for a receiver point, accumulated per channel
+    /// into `out`; `coef[c]` are the emitter node's coefficients (`n` per channel) in
+    /// the node's orthonormal basis `φ = ψ/√A_node`.
+    #[allow(clippy::too_many_arguments)]
+    fn gather(
+        &self,
+        pt: &Point,
+        pr: &Patch,
+        pe: &Patch,
+        en: &Region,
+        es: &Region,
+        depth: u32,
+        vdepth: u32,
+        coef: &[&[f64]; 3],
+        out: &mut [f64; 3],
+        tally: &mut Tally,
+    ) {
+        let cov = if pe.support.mask.is_some() {
+            pe.support.coverage(es.s0, es.t0, es.h)
+        } else {
+            Coverage::Full
+        };
+        if cov == Coverage::Empty {
+            return;
+        }
+        let (c, rad) = pe.support.bounding_sphere(es.s0, es.t0, es.h);
+        let near = (pt.x - c).length() < self.near * rad;
+        let split_partial = cov == Coverage::Partial && depth < 3;
+        if (near || split_partial) && depth < self.max_depth {
+            for b in es.split() {
+                self.gather(pt, pr, pe, en, &b, depth + 1, vdepth, coef, out, tally);
+            }
+            return;
+        }
+        let basis = self.ctx.basis();
+        let n = basis.n();
+        let (gx, gw, gc) = (&self.rule.0, &self.rule.1, &self.rule.2);
+        let q = gx.len();
+        let inv = 1.0 / (pe.support.area * en.h * en.h).sqrt();
+        let mut phi = [0.0; 16];
+        let mut acc = [0.0; 3];
+        let (mut seen, mut hidden) = (false, false);
+        for kt in 0..q {
+            for ks in 0..q {
+                let w = weight_in(pe, es, (gx, gw, gc), ks, kt);
+                if w == 0.0 {
+                    continue;
+                }
+                let (u, v) = (es.s0 + es.h * gx[ks], es.t0 + es.h * gx[kt]);
+                let (y, ny) = pe.support.point_normal(u, v);
+                tally.evals += 1;
+                let g = kernel(pt.x, pt.n, y, ny);
+                if g == 0.0 {
+                    continue;
+                }
+                if self.vis {
+                    let vy = if pe.support.mask.is_some() {
+                        pe.support.visibility_point(u, v)
+                    } else {
+                        y
+                    };
+                    if !self.ctx.visible(pt.v, pr, vy, pe, &mut tally.rays) {
+                        tally.blocked += 1;
+                        hidden = true;
+                        continue;
+                    }
+                    tally.visible += 1;
+                    seen = true;
+                }
+                let f = w * g;
+                basis.eval((u - en.s0) / en.h, (v - en.t0) / en.h, &mut phi[..n]);
+                for ch in 0..3 {
+                    let b: f64 = (0..n).map(|i| coef[ch][i] * phi[i]).sum();
+                    acc[ch] += f * inv * b;
+                }
+            }
+        }
+        if seen && hidden && vdepth < self.vis_depth {
+            // A shadow boundary crosses the piece: its q² rays resolve the visible
+            // part only to ~1/q²; integrate the quarters instead.
+            for b in es.split() {
+                self.gather(pt, pr, pe, en, &b, depth + 1, vdepth + 1, coef, out, tally);
+            }
+            return;
+        }
+        (0..3).for_each(|c| out[c] += acc[c]);
+    }
+}
+
+/// Estimates the error of a gathered tree-basis solution (see the module docs).
+/// `ctx` must be the transfer context the solution's links were computed with (same
+/// patches, accelerator and basis).
+///
+/// # Errors
+/// [`SolverError::InvalidConfig`] for bad options or a CDV solution (no links to
+/// estimate from), [`SolverError::Dependency`] if a rule cannot be built,
+/// [`SolverError::Linear`] if the propagation solve fails.
+pub fn estimate(
+    ctx: &TransferCtx<'_>,
+    sol: &Solution,
+    opts: &EstimateOptions,
+) -> Result<ErrorEstimate, SolverError> {
+    let t0 = Instant::now();
+    opts.validate()?;
+    if sol.cdv_field().is_some() {
+        return Err(SolverError::InvalidConfig {
+            field: "basis",
+            value: "CDV".into(),
+            reason: "the a-posteriori estimate needs a tree-basis solution with links",
+        });
+    }
+    let sys = &sol.system;
+    let h = &sys.h;
+    let basis = sol.basis();
+    let n = basis.n();
+    let k = basis.k();
+    if ctx.basis().n() != n {
+        return Err(SolverError::InvalidConfig {
+            field: "basis",
+            value: basis.kind().name(),
+            reason: "the transfer context has a different basis than the solution",
+        });
+    }
+    let p = if opts.receiver_points == 0 {
+        (k + 1).max(3)
+    } else {
+        opts.receiver_points
+    };
+    let q = if opts.emitter_points == 0 {
+        3
+    } else {
+        opts.emitter_points
+    };
+    let recv_rule = rule(p)?;
+    let fine = Fine {
+        ctx,
+        rule: rule(q)?,
+        near: opts.near,
+        max_depth: opts.max_depth,
+        vis_depth: opts.vis_depth,
+        vis: ctx.visibility_mode() != Visibility::Off,
+    };
+    let patches = &sol.patches;
+    let pts: Vec<Vec<Point>> = h
+        .leaves
+        .par_iter()
+        .map(|&i| {
+            let key = h.keys[i as usize];
+            leaf_points(&patches[key.patch as usize], &key.region(), &recv_rule)
+        })
+        .collect();
+    let mut est = ErrorEstimate {
+        link_error: vec![0.0; h.link_count()],
+        leaf_error: vec![0.0; h.leaves.len()],
+        ..ErrorEstimate::default()
+    };
+    // Fine irradiance at every residual point, patch by patch (bounded memory).
+    let mut hf: Vec<Vec<[f64; 3]>> = pts.iter().map(|v| vec![[0.0; 3]; v.len()]).collect();
+    let mut by_patch: Vec<Vec<u32>> = vec![Vec::new(); patches.len()];
+    for (i, key) in h.keys.iter().enumerate() {
+        by_patch[key.patch as usize].push(i as u32);
+    }
+    let mut tally = Tally::default();
+    for (pi, nodes) in by_patch.iter().enumerate() {
+        if !patches[pi].reflects() {
+            continue;
+        }
+        let links: Vec<usize> = nodes
+            .iter()
+            .flat_map(|&r| h.recv_offsets[r as usize]..h.recv_offsets[r as usize + 1])
+            .collect();
+        let fits: Vec<LinkFit> = links
+            .par_iter()
+            .map(|&l| link_fit(&fine, sol, l, &recv_rule))
+            .collect();
+        let mut detailed: Vec<(usize, usize)> = Vec::new();
+        for (&l, fit) in links.iter().zip(&fits) {
+            tally.add(&fit.tally);
+            est.link_error[l] = fit.eta;
+            est.detailed_links += u64::from(fit.detailed);
+            let r = h.link_receiver[l] as usize;
+            let rreg = h.keys[r].region();
+            for leaf in leaves_under(h, r) {
+                let li = h.leaf_of[leaf] as usize;
+                if leaf == r {
+                    for (acc, f) in hf[li].iter_mut().zip(&fit.f) {
+                        (0..3).for_each(|c| acc[c] += f[c]);
+                    }
+                } else if fit.detailed {
+                    detailed.push((l, li));
+                } else {
+                    for (j, pt) in pts[li].iter().enumerate() {
+                        let v = interpolate(&recv_rule.0, &rreg, pt.s, pt.t, &fit.f);
+                        (0..3).for_each(|c| hf[li][j][c] += v[c]);
+                    }
+                }
+            }
+        }
+        let extra: Vec<(Vec<[f64; 3]>, Tally)> = detailed
+            .par_iter()
+            .map(|&(l, li)| fine_at(&fine, sol, l, &pts[li]))
+            .collect();
+        for (&(_, li), (v, t)) in detailed.iter().zip(&extra) {
+            tally.add(t);
+            for (acc, f) in hf[li].iter_mut().zip(v) {
+                (0..3).for_each(|c| acc[c] += f[c]);
+            }
+        }
+    }
+    est.kernel_evals = tally.evals;
+    est.rays = tally.rays;
+    // Residual r = E + ρ H_fine − B_h at every point; its projection P r.
+    let mut resid: Vec<Vec<[f64; 3]>> = Vec::with_capacity(h.leaves.len());
+    let mut bh: Vec<Vec<[f64; 3]>> = Vec::with_capacity(h.leaves.len());
+    let mut proj: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; sys.dim()]);
+    let mut psi = [0.0; 16];
+    for (l, &leaf) in h.leaves.iter().enumerate() {
+        let key = h.keys[leaf as usize];
+        let patch = &patches[key.patch as usize];
+        let reg = key.region();
+        let inv = 1.0 / sys.node_area[leaf as usize].sqrt();
+        let mut rl = Vec::with_capacity(pts[l].len());
+        let mut bl = Vec::with_capacity(pts[l].len());
+        for (j, pt) in pts[l].iter().enumerate() {
+            basis.eval(
+                (pt.s - reg.s0) / reg.h,
+                (pt.t - reg.t0) / reg.h,
+                &mut psi[..n],
+            );
+            let b: [f64; 3] = std::array::from_fn(|c| {
+                (0..n)
+                    .map(|a| sol.node_b[c][leaf as usize * n + a] * psi[a])
+                    .sum::<f64>()
+                    * inv
+            });
+            let r: [f64; 3] = std::array::from_fn(|c| {
+                patch.emission[c] + patch.reflectance[c] * hf[l][j][c] - b[c]
+            });
+            for c in 0..3 {
+                for a in 0..n {
+                    proj[c][l * n + a] += pt.w * r[c] * psi[a] * inv;
+                }
+            }
+            rl.push(r);
+            bl.push(b);
+        }
+        resid.push(rl);
+        bh.push(bl);
+    }
+    // Transported part y = (I − K_h)⁻¹ K_h P r per channel.
+    let mut y: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; sys.dim()]);
+    if opts.propagate && sys.dim() > 0 {
+        let grey = patches.iter().all(|p| {
+            p.reflectance.iter().all(|&r| r == p.reflectance[0])
+                && p.emission.iter().all(|&e| e == p.emission[0])
+        }) && proj[1] == proj[0]
+            && proj[2] == proj[0];
+        let channels = if grey { 1 } else { 3 };
+        for c in 0..channels {
+            let mut kr = vec![0.0; sys.dim()];
+            sys.apply_k(c, &proj[c], &mut kr);
+            let (x, _) = linear_solve(
+                &sys.channel(c),
+                &kr,
+                LinearMethod::Gmres { restart: 30 },
+                60,
+                1e-4,
+                None,
+                None,
+                &|b: &[f64], x: &mut [f64]| sys.gauss_seidel_sweep(c, b, x),
+            )?;
+            y[c] = x;
+        }
+        if grey {
+            y[1] = y[0].clone();
+            y[2] = y[0].clone();
+        }
+    }
+    for (l, &leaf) in h.leaves.iter().enumerate() {
+        let key = h.keys[leaf as usize];
+        let patch = &patches[key.patch as usize];
+        let reg = key.region();
+        let inv = 1.0 / sys.node_area[leaf as usize].sqrt();
+        for (j, pt) in pts[l].iter().enumerate() {
+            if pt.wr == 0.0 {
+                continue;
+            }
+            basis.eval(
+                (pt.s - reg.s0) / reg.h,
+                (pt.t - reg.t0) / reg.h,
+                &mut psi[..n],
+            );
+            for c in 0..3 {
+                let yv: f64 = (0..n).map(|a| y[c][l * n + a] * psi[a]).sum::<f64>() * inv;
+                let r = resid[l][j][c];
+                let e = r + yv;
+                est.error_l1[c] += pt.wr * e.abs();
+                est.residual_l1[c] += pt.wr * r.abs();
+                est.reflected_l1[c] += pt.wr * (bh[l][j][c] - patch.emission[c]).abs();
+                est.leaf_error[l] += pt.wr * e.abs();
+            }
+            est.points += 1;
+        }
+    }
+    let num: f64 = est.error_l1.iter().sum();
+    let den: f64 = est.reflected_l1.iter().sum();
+    est.relative_l1 = if den > 0.0 { num / den } else { 0.0 };
+    est.time = t0.elapsed();
+    Ok(est)
+}
+
+/// The link's emitter coefficients per channel and `T B_E` per channel.
+fn link_parts(sol: &Solution, l: usize) -> ([&[f64]; 3], [[f64; 16]; 3]) {
+    let h = &sol.system.h;
+    let n = h.n;
+    let e = h.link_emitter[l] as usize;
+    let coef: [&[f64]; 3] = std::array::from_fn(|c| &sol.node_b[c][e * n..][..n]);
+    let blk = &h.blocks[l * n * n..][..n * n];
+    let tb = std::array::from_fn(|c| {
+        let mut v = [0.0; 16];
+        for a in 0..n {
+            v[a] = (0..n).map(|b| blk[a * n + b] * coef[c][b]).sum();
+        }
+        v
+    });
+    (coef, tb)
+}
+
+/// Fine transport of link `l` at the given points of (a leaf under) its receiver.
+fn fine_at(fine: &Fine<'_>, sol: &Solution, l: usize, pts: &[Point]) -> (Vec<[f64; 3]>, Tally) {
+    let h = &sol.system.h;
+    let (coef, _) = link_parts(sol, l);
+    let pr = &sol.patches[h.keys[h.link_receiver[l] as usize].patch as usize];
+    let ek = h.keys[h.link_emitter[l] as usize];
+    let pe = &sol.patches[ek.patch as usize];
+    let ereg = ek.region();
+    let mut tally = Tally::default();
+    let f = pts
+        .iter()
+        .map(|pt| {
+            let mut f = [0.0; 3];
+            fine.gather(pt, pr, pe, &ereg, &ereg, 0, 0, &coef, &mut f, &mut tally);
+            f
+        })
+        .collect();
+    (f, tally)
+}
+
+/// The fine transport of link `l` at the residual points of its receiver `R`, and
+/// its indicator `η_l = ∫_R ρ Σ_c |Δ_c|` from those points.
+fn link_fit(fine: &Fine<'_>, sol: &Solution, l: usize, rule: &Rule) -> LinkFit {
+    let sys = &sol.system;
+    let h = &sys.h;
+    let n = h.n;
+    let basis = sol.basis();
+    let r = h.link_receiver[l] as usize;
+    let rk = h.keys[r];
+    let rreg = rk.region();
+    let pr = &sol.patches[rk.patch as usize];
+    let ek = h.keys[h.link_emitter[l] as usize];
+    let pe = &sol.patches[ek.patch as usize];
+    let pts = leaf_points(pr, &rreg, rule);
+    let (f, tally) = fine_at(fine, sol, l, &pts);
+    let (_, tb) = link_parts(sol, l);
+    let rinv = 1.0 / sys.node_area[r].sqrt();
+    let mut psi = [0.0; 16];
+    let mut eta = 0.0;
+    for (pt, fv) in pts.iter().zip(&f) {
+        basis.eval(
+            (pt.s - rreg.s0) / rreg.h,
+            (pt.t - rreg.t0) / rreg.h,
+            &mut psi[..n],
+        );
+        for c in 0..3 {
+            let d: f64 = (0..n).map(|a| tb[c][a] * psi[a]).sum::<f64>() * rinv;
+            eta += pt.wr * pr.reflectance[c] * (fv[c] - d).abs();
+        }
+    }
+    let (cr, rr) = pr.support.bounding_sphere(rreg.s0, rreg.t0, rreg.h);
+    let ereg = ek.region();
+    let (ce, re) = pe.support.bounding_sphere(ereg.s0, ereg.t0, ereg.h);
+    let near = (cr - ce).length() < rr + re;
+    let partial = tally.visible > 0 && tally.blocked > 0;
+    LinkFit {
+        f,
+        detailed: near || partial,
+        eta,
+        tally,
+    }
+}
+
+/// Node indices of the leaves in the subtree of `node`.
+fn leaves_under(h: &crate::hierarchy::Hierarchy, node: usize) -> Vec<usize> {
+    let mut out = Vec::new();
+    let mut stack = vec![node];
+    while let Some(i) = stack.pop() {
+        let ch = h.children[i];
+        if ch[0] == u32::MAX {
+            out.push(i);
+        } else {
+            stack.extend(ch.iter().rev().map(|&c| c as usize));
+        }
+    }
+    out
+}
+
+/// Lagrange interpolation at `(s, t)` of values `f[jt·p + js]` given at the tensor
+/// nodes `x` of the region `r`.
+fn interpolate(x: &[f64], r: &Region, s: f64, t: f64, f: &[[f64; 3]]) -> [f64; 3] {
+    let p = x.len();
+    let lag = |u: f64, out: &mut [f64]| {
+        for i in 0..p {
+            let mut v = 1.0;
+            for j in 0..p {
+                if j != i {
+                    v *= (u - x[j]) / (x[i] - x[j]);
+                }
+            }
+            out[i] = v;
+        }
+    };
+    let (mut ls, mut lt) = ([0.0; 8], [0.0; 8]);
+    lag((s - r.s0) / r.h, &mut ls[..p]);
+    lag((t - r.t0) / r.h, &mut lt[..p]);
+    let mut out = [0.0; 3];
+    for jt in 0..p {
+        for js in 0..p {
+            let w = ls[js] * lt[jt];
+            (0..3).for_each(|c| out[c] += w * f[jt * p + js][c]);
+        }
+    }
+    out
+}

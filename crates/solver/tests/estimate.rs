@@ -1,0 +1,250 @@
+//! The a-posteriori error estimate and the target-error loop against an independent
+//! reference: a much finer Galerkin solution of the same scene, whose own estimated
+//! error is far below the error being checked. The measured error is the relative L1
+//! of the radiosity function over a grid of real points (true area), the estimate's
+//! definition.
+
+use std::sync::{Mutex, OnceLock};
+
+use wavelux_scene::Scene;
+use wavelux_scene::builtin::builtin;
+use wavelux_solver::{
+    BasisKind, EstimateOptions, LinearMethod, Prepared, Solution, SolverConfig, SolverError,
+    TargetConfig, estimate, solve_prepared, solve_to_target,
+};
+
+/// `Σ_c ∫|B_c − B_ref,c| / Σ_c ∫|B_ref,c − E_c|` over an `m × m` grid of cell centres
+/// of every patch (real points only, weighted by the Jacobian).
+fn measured(sol: &Solution, reference: &Solution, m: usize) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for (pi, p) in sol.patches.iter().enumerate() {
+        if !p.reflects() {
+            continue;
+        }
+        for j in 0..m {
+            for i in 0..m {
+                let (s, t) = ((i as f64 + 0.5) / m as f64, (j as f64 + 0.5) / m as f64);
+                if !p.support.is_real(s, t) {
+                    continue;
+                }
+                let w = p.support.jacobian(s, t);
+                let (b, r) = (sol.radiosity(pi, s, t), reference.radiosity(pi, s, t));
+                for c in 0..3 {
+                    num += w * (b[c] - r[c]).abs();
+                    den += w * (r[c] - p.emission[c]).abs();
+                }
+            }
+        }
+    }
+    num / den
+}
+
+/// The reference of a built-in scene: M3 to level 3, and its estimated error
+/// (computed once per scene and shared by the tests).
+fn reference(name: &'static str) -> &'static (Solution, f64) {
+    type Cache = Mutex<Vec<(&'static str, &'static (Solution, f64))>>;
+    static CACHE: OnceLock<Cache> = OnceLock::new();
+    let cache = CACHE.get_or_init(|| Mutex::new(Vec::new()));
+    let mut c = cache.lock().unwrap();
+    if let Some((_, r)) = c.iter().find(|(n, _)| *n == name) {
+        return r;
+    }
+    let scene = builtin(name).unwrap();
+    let r: &'static (Solution, f64) = Box::leak(Box::new(solve_and_estimate(
+        &scene,
+        &config(BasisKind::Multiwavelet(3), 3, 1e-4),
+    )));
+    c.push((name, r));
+    r
+}
+
+fn config(basis: BasisKind, max_level: u8, eps: f64) -> SolverConfig {
+    SolverConfig {
+        basis,
+        max_level,
+        eps,
+        linear_method: LinearMethod::Gmres { restart: 30 },
+        tolerance: 1e-10,
+        ..SolverConfig::default()
+    }
+}
+
+/// Solves and estimates; returns the solution and its estimated relative L1 error.
+fn solve_and_estimate(scene: &Scene, cfg: &SolverConfig) -> (Solution, f64) {
+    let prep = Prepared::new(scene, cfg).unwrap();
+    let sol = solve_prepared(&prep).unwrap();
+    let ctx = prep.transfer().unwrap();
+    let est = estimate(&ctx, &sol, &EstimateOptions::default()).unwrap();
+    assert_eq!(est.leaf_error.len(), sol.system.h.leaves.len());
+    assert_eq!(est.link_error.len(), sol.system.h.link_count());
+    let leaf_sum: f64 = est.leaf_error.iter().sum();
+    let total: f64 = est.error_l1.iter().sum();
+    assert!(
+        (leaf_sum - total).abs() <= 1e-9 * total.max(1e-300),
+        "leaf errors sum to the total: {leaf_sum} vs {total}"
+    );
+    (sol, est.relative_l1)
+}
+
+/// On the unoccluded and the occluded Ziegler scenes (interreflection, a shadow), the
+/// estimate of a coarse solution is within a factor 2 of its error measured against
+/// a fine solution whose own estimate is at most a fifth of that error.
+#[test]
+fn estimate_within_factor_two_of_the_measured_error() {
+    for (name, basis, level) in [
+        ("ziegler-unoccluded", BasisKind::Multiwavelet(3), 1),
+        ("ziegler-occluded", BasisKind::Haar, 2),
+        ("ziegler-occluded", BasisKind::Multiwavelet(2), 1),
+    ] {
+        let scene = builtin(name).unwrap();
+        let (fine, fine_est) = reference(name);
+        let fine_est = *fine_est;
+        {
+            let (sol, est) = solve_and_estimate(&scene, &config(basis, level, 1e-4));
+            let meas = measured(&sol, fine, 64);
+            println!(
+                "{name} {} level {level}: estimate {est:.4} measured {meas:.4} (fine estimate {fine_est:.5})",
+                basis.name()
+            );
+            assert!(
+                fine_est <= 0.2 * meas,
+                "{name}: reference not fine enough ({fine_est} vs {meas})"
+            );
+            let ratio = est / meas;
+            assert!(
+                (0.5..=2.0).contains(&ratio),
+                "{name} {}: estimate {est} vs measured {meas} (ratio {ratio})",
+                basis.name()
+            );
+        }
+    }
+}
+
+/// The target loop stops with an estimate at most the target, its rounds' estimates
+/// reach it, and the solution's measured error is within twice the target.
+#[test]
+fn target_loop_reaches_the_target() {
+    let scene = builtin("ziegler-occluded").unwrap();
+    let (fine, _) = reference("ziegler-occluded");
+    let cfg = TargetConfig {
+        target: 0.02,
+        ..TargetConfig::default()
+    };
+    let out = solve_to_target(&scene, &cfg).unwrap();
+    for r in &out.rounds {
+        println!(
+            "round {} links {} leaves {} estimate {:.4}",
+            r.round, r.links, r.leaves, r.estimate
+        );
+    }
+    assert!(out.reached, "{}", out.stop_reason);
+    assert!(out.estimate.relative_l1 <= cfg.target);
+    assert_eq!(
+        out.rounds.last().unwrap().estimate,
+        out.estimate.relative_l1
+    );
+    let meas = measured(&out.solution, fine, 64);
+    println!("measured {meas:.4}");
+    assert!(meas <= 2.0 * cfg.target, "measured {meas}");
+}
+
+/// Results do not depend on the number of threads (bitwise).
+#[test]
+fn estimate_is_independent_of_the_thread_count() {
+    let scene = builtin("ziegler-occluded").unwrap();
+    let cfg = config(BasisKind::Multiwavelet(2), 1, 1e-3);
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let prep = Prepared::new(&scene, &cfg).unwrap();
+                let sol = solve_prepared(&prep).unwrap();
+                let ctx = prep.transfer().unwrap();
+                estimate(&ctx, &sol, &EstimateOptions::default()).unwrap()
+            })
+    };
+    let (a, b) = (run(1), run(3));
+    assert_eq!(a.relative_l1.to_bits(), b.relative_l1.to_bits());
+    assert_eq!(a.leaf_error, b.leaf_error);
+    assert_eq!(a.link_error, b.link_error);
+    assert_eq!(a.rays, b.rays);
+}
+
+/// Bad options and configurations are typed errors naming the field.
+#[test]
+fn bad_options_are_typed_errors() {
+    let field = |e: SolverError| match e {
+        SolverError::InvalidConfig { field, .. } => field,
+        other => panic!("unexpected error {other:?}"),
+    };
+    let scene = builtin("ziegler-unoccluded").unwrap();
+    for (cfg, name) in [
+        (
+            TargetConfig {
+                target: f64::NAN,
+                ..TargetConfig::default()
+            },
+            "target",
+        ),
+        (
+            TargetConfig {
+                target: 0.0,
+                ..TargetConfig::default()
+            },
+            "target",
+        ),
+        (
+            TargetConfig {
+                bulk: 0.0,
+                ..TargetConfig::default()
+            },
+            "bulk",
+        ),
+        (
+            TargetConfig {
+                max_rounds: 0,
+                ..TargetConfig::default()
+            },
+            "max_rounds",
+        ),
+        (
+            TargetConfig {
+                basis: Some(BasisKind::Cdv),
+                ..TargetConfig::default()
+            },
+            "basis",
+        ),
+    ] {
+        assert_eq!(field(solve_to_target(&scene, &cfg).unwrap_err()), name);
+    }
+    let prep = Prepared::new(&scene, &config(BasisKind::Haar, 1, 1e-2)).unwrap();
+    let sol = solve_prepared(&prep).unwrap();
+    let ctx = prep.transfer().unwrap();
+    for (o, name) in [
+        (
+            EstimateOptions {
+                near: 0.5,
+                ..EstimateOptions::default()
+            },
+            "estimate.near",
+        ),
+        (
+            EstimateOptions {
+                receiver_points: 9,
+                ..EstimateOptions::default()
+            },
+            "estimate.receiver_points",
+        ),
+        (
+            EstimateOptions {
+                vis_depth: 7,
+                ..EstimateOptions::default()
+            },
+            "estimate.vis_depth",
+        ),
+    ] {
+        assert_eq!(field(estimate(&ctx, &sol, &o).unwrap_err()), name);
+    }
+}
