@@ -9,6 +9,7 @@ pub mod ziegler_3_1_4;
 use crate::report::Report;
 use crate::reproduce::Ctx;
 
+mod glossy_ward;
 mod speed_accuracy;
 mod standard;
 mod virtual_mesh_common;
@@ -98,6 +99,13 @@ pub fn all() -> Vec<Reproduction> {
             seed_file: "004_cb5b08859768bf36.txt",
             title: "Standard vs non-standard decomposition of the same links: sparsity, solve cost, agreement",
             run: standard::run,
+        },
+        Reproduction {
+            id: "glossy-ward",
+            source: "Glossy §6.2 (Ward BRDF); albedos registered in issue 16",
+            seed_file: "003_fdfe6675de3bf6ad.txt",
+            title: "Ward albedo of the Original, Product and Bounded normalisations",
+            run: glossy_ward::run,
         },
     ]
 }
