@@ -117,6 +117,13 @@ pub struct SolveArgs {
     /// Wavelet basis [default: m3 for gather, haar for shoot].
     #[arg(long, value_enum)]
     pub basis: Option<BasisArg>,
+    /// Solve to this relative L1 error of the radiosity function (`0.01` or `1%`):
+    /// refine-solve-estimate rounds until the a-posteriori estimate is below it; the
+    /// basis (unless --basis), thresholds and depth are chosen by the solver and
+    /// recorded in the JSON (`statistics.target`); --max-level is then only a safety
+    /// limit [default: 10].
+    #[arg(long, value_parser = parse_fraction, conflicts_with_all = ["eps", "oracle"])]
+    pub target_error: Option<f64>,
     /// Refinement threshold (see --oracle for its unit).
     #[arg(long, default_value_t = 1e-2)]
     pub eps: f64,
@@ -191,6 +198,21 @@ pub struct SolveArgs {
     /// With --method reference: samples per surface of the reference itself.
     #[arg(long, default_value_t = 65536)]
     pub samples: u64,
+}
+
+/// A fraction written as `0.01` or `1%`; must be finite and in (0, 1).
+fn parse_fraction(v: &str) -> Result<f64, String> {
+    let t = v.trim();
+    let x = match t.strip_suffix('%') {
+        Some(p) => p.trim().parse::<f64>().map(|x| x / 100.0),
+        None => t.parse::<f64>(),
+    }
+    .map_err(|e| format!("{v:?} is not a number or percentage: {e}"))?;
+    if x.is_finite() && x > 0.0 && x < 1.0 {
+        Ok(x)
+    } else {
+        Err(format!("{v:?} must be in (0, 1) (or (0 %, 100 %))"))
+    }
 }
 
 /// Camera options of `render`.

@@ -125,6 +125,9 @@ pub struct Times {
     pub refine: f64,
     /// Linear solves.
     pub solve: f64,
+    /// A-posteriori error estimates (`--target-error`; 0 otherwise).
+    #[serde(default)]
+    pub estimate: f64,
     /// Monte Carlo (reference or error check).
     pub monte_carlo: f64,
     /// Rendering.
@@ -178,6 +181,59 @@ pub struct Statistics {
     /// Shooting: convergence rate `(E_i − E_r)/E_i` after each shot (empty otherwise).
     #[serde(default)]
     pub convergence_history: Vec<f64>,
+    /// `--target-error`: the a-posteriori estimate, what the solver chose and why,
+    /// and every refine-solve-estimate round (null otherwise).
+    #[serde(default)]
+    pub target: Option<TargetReport>,
+}
+
+/// The target-error loop of a run (`--target-error`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TargetReport {
+    /// The target relative L1 error of the radiosity function.
+    pub target: f64,
+    /// Whether the estimate reached it.
+    pub reached: bool,
+    /// Why the loop stopped.
+    pub stop_reason: String,
+    /// The a-posteriori estimate of the final solution's relative L1 error
+    /// (`Σ_c ∫|e_c| / Σ_c ∫|B_c − E_c|` over real points).
+    pub estimate: f64,
+    /// The residual alone (the local part of the estimate), relative as above.
+    pub residual: f64,
+    /// The basis chosen (or given) and why.
+    pub basis: String,
+    /// Why that basis.
+    pub basis_reason: String,
+    /// Initial brightness threshold (W/m²) and why.
+    pub eps: f64,
+    /// Why that threshold.
+    pub eps_reason: String,
+    /// Relative residual tolerance of the linear solves.
+    pub tolerance: f64,
+    /// Every round.
+    pub rounds: Vec<TargetRound>,
+}
+
+/// One refine-solve-estimate round.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TargetRound {
+    /// Links solved with.
+    pub links: usize,
+    /// Leaves (unknown blocks).
+    pub leaves: usize,
+    /// Links split before this round.
+    pub refined: u64,
+    /// Estimated relative L1 error after the round.
+    pub estimate: f64,
+    /// Wall times (s): refinement and link blocks, linear solves, the estimate.
+    pub time_refine_s: f64,
+    /// See `time_refine_s`.
+    pub time_solve_s: f64,
+    /// See `time_refine_s`.
+    pub time_estimate_s: f64,
+    /// Shadow rays of the estimate.
+    pub estimate_rays: u64,
 }
 
 /// Energy accounting (W per channel).

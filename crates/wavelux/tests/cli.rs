@@ -259,6 +259,19 @@ fn unavailable_and_bad_options_fail_clearly() -> Result<()> {
     fails(&["solve", "--width", "0"], d, "--width");
     fails(&["render", "--camera", "nope"], d, "no camera");
     fails(&["compare", "a.json", "b.png"], d, "not one of each");
+    fails(&["solve", "--target-error", "0"], d, "must be in (0, 1)");
+    fails(&["solve", "--target-error", "150%"], d, "must be in (0, 1)");
+    fails(&["solve", "--target-error", "abc"], d, "not a number");
+    fails(
+        &["solve", "--target-error", "1%", "--eps", "0.1"],
+        d,
+        "cannot be used with",
+    );
+    fails(
+        &["solve", "--method", "shoot", "--target-error", "1%"],
+        d,
+        "--target-error applies to --method gather",
+    );
     // Nothing was written by the failed runs.
     assert!(!d.join("out").join("cornell.json").exists());
     Ok(())
@@ -733,5 +746,65 @@ shape = {{ type = "sphere", center = [0, 0, {h}], radius = {radius} }}
         s["std_error"][0].as_f64().context("se")?,
     );
     assert!((m - exact).abs() < 4.5 * se, "{m} ± {se} vs {exact}");
+    Ok(())
+}
+
+/// `--target-error` solves until the a-posteriori estimate is below the target,
+/// records what it chose and every round, and `3%` means `0.03`; the path-traced
+/// check of the surface averages agrees within the target (plus the check's noise).
+#[test]
+fn target_error_reaches_the_target_and_records_its_rounds() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    let solve = |target: &str, name: &str| -> Result<Value> {
+        let json = d.join(format!("{name}.json"));
+        let j = json.to_str().context("utf-8 path")?.to_string();
+        ok(
+            &[
+                "solve",
+                "builtin:ziegler-occluded",
+                "--target-error",
+                target,
+                "--width",
+                "16",
+                "--height",
+                "16",
+                "--spp",
+                "1",
+                "--gather",
+                "0",
+                "--samples",
+                "20000",
+                "--threads",
+                "2",
+                "--json",
+                &j,
+                "--quiet",
+            ],
+            d,
+        )?;
+        Ok(serde_json::from_str(&std::fs::read_to_string(&json)?)?)
+    };
+    let a = solve("3%", "a")?;
+    let t = &a["statistics"]["target"];
+    assert_eq!(t["target"].as_f64(), Some(0.03));
+    assert_eq!(t["reached"], true, "{t}");
+    let est = t["estimate"].as_f64().unwrap();
+    assert!(est > 0.0 && est <= 0.03, "estimate {est}");
+    let rounds = t["rounds"].as_array().unwrap();
+    assert!(!rounds.is_empty());
+    assert_eq!(rounds.last().unwrap()["estimate"].as_f64(), Some(est));
+    assert_eq!(t["basis"], "M3");
+    assert!(!t["basis_reason"].as_str().unwrap().is_empty());
+    assert!(t["eps"].as_f64().unwrap() > 0.0);
+    let e = &a["error_estimate"];
+    let (mc, noise) = (
+        e["relative_l1"].as_f64().unwrap(),
+        e["check_noise"].as_f64().unwrap(),
+    );
+    assert!(mc <= 0.03 + 3.0 * noise, "check {mc} (noise {noise})");
+    let b = solve("0.03", "b")?;
+    assert_eq!(a["surfaces"], b["surfaces"]);
+    assert_eq!(t["rounds"].as_array().unwrap().len(), rounds.len());
     Ok(())
 }

@@ -14,6 +14,7 @@ mod reference;
 mod scenes;
 mod shoot;
 mod summary;
+mod target;
 mod view;
 mod wavelet;
 
@@ -72,8 +73,15 @@ pub struct Outcome {
 /// The method of the arguments: `--method reference` → the path tracer; `--method
 /// shoot` or `--solver southwell` → the shooting solver (which *is* Southwell
 /// iteration: the patch with the largest unshot power is relaxed next); otherwise
-/// gathering with the chosen linear solver. Inconsistent or invalid choices are errors.
+/// gathering with the chosen linear solver, or with `--target-error` the target-error
+/// loop (gathering only). Inconsistent or invalid choices are errors.
 pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
+    if let Some(t) = a.target_error {
+        if a.method != MethodArg::Gather {
+            bail!("--target-error applies to --method gather");
+        }
+        return target::plan(a, t);
+    }
     match a.method {
         MethodArg::Reference => reference::plan(a),
         MethodArg::Shoot => shoot::plan(a),

@@ -37,8 +37,20 @@ pub fn print_summary(r: &report::Result, method: &dyn Method, has_solution: bool
     );
     let t = &st.time_s;
     println!(
-        "  time        {:.2} s total: setup {:.2}, refine {:.2}, solve {:.2}, Monte Carlo {:.2}, render {:.2}, write {:.2} ({} threads)",
-        t.total, t.setup, t.refine, t.solve, t.monte_carlo, t.render, t.write, r.method.threads
+        "  time        {:.2} s total: setup {:.2}, refine {:.2}, solve {:.2}, {}Monte Carlo {:.2}, render {:.2}, write {:.2} ({} threads)",
+        t.total,
+        t.setup,
+        t.refine,
+        t.solve,
+        if t.estimate > 0.0 {
+            format!("estimate {:.2}, ", t.estimate)
+        } else {
+            String::new()
+        },
+        t.monte_carlo,
+        t.render,
+        t.write,
+        r.method.threads
     );
     println!(
         "  memory      {:.1} MiB solver, {} peak",

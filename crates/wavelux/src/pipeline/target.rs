@@ -1,0 +1,139 @@
+//! `--target-error E` (with `--method gather`): wavelet radiosity solved to a target
+//! relative L1 error of the radiosity function by refine–solve–estimate rounds
+//! (`wavelux_solver::target`, Ziegler's refine–solve loop driven by the a-posteriori
+//! estimate of `wavelux_solver::estimate`). The solver chooses the basis (unless
+//! `--basis`), the initial threshold and the refinement depth; `--max-level` is only a
+//! safety limit. What it chose, and every round, go into `statistics.target`.
+
+use anyhow::{Context, bail};
+use wavelux::solver::{LinearMethod, TargetConfig, TargetOutcome, solve_to_target};
+
+use super::wavelet::{basis_kind, finish, visibility};
+use super::{Job, Method, Outcome, name_of, secs};
+use crate::cli::{SolveArgs, SolverArg, VisibilityArg};
+use crate::progress;
+use crate::report;
+
+/// Default safety limit on the element level.
+const MAX_LEVEL: u8 = 10;
+
+/// The target-error loop with a validated configuration.
+struct Target {
+    cfg: TargetConfig,
+    solver: SolverArg,
+    visibility: VisibilityArg,
+}
+
+/// The plan of `--target-error` (gathering only; `--eps` and `--oracle` conflict with
+/// it in the argument parser).
+pub fn plan(a: &SolveArgs, target: f64) -> anyhow::Result<Box<dyn Method>> {
+    let solver = a.solver.unwrap_or(SolverArg::Gmres);
+    let linear_method = match solver {
+        SolverArg::Picard | SolverArg::Jacobi => LinearMethod::Picard,
+        SolverArg::GaussSeidel => LinearMethod::GaussSeidel,
+        SolverArg::Gmres => LinearMethod::Gmres { restart: 30 },
+        SolverArg::Cgnr => LinearMethod::Cgnr,
+        SolverArg::Southwell => {
+            bail!("--target-error applies to --method gather, not to shooting (--solver southwell)")
+        }
+    };
+    let mut cfg = TargetConfig {
+        target,
+        basis: a.basis.map(basis_kind),
+        ..TargetConfig::default()
+    };
+    cfg.solver.max_level = a.max_level.unwrap_or(MAX_LEVEL);
+    cfg.solver.min_area = a.min_area;
+    cfg.solver.visibility = visibility(a.visibility);
+    cfg.solver.quad_points = a.quad;
+    cfg.solver.linear_method = linear_method;
+    cfg.solver.max_iterations = a.max_iterations;
+    cfg.solver.tolerance = a.tolerance;
+    cfg.validate().context("invalid --target-error option")?;
+    Ok(Box::new(Target {
+        cfg,
+        solver,
+        visibility: a.visibility,
+    }))
+}
+
+/// The JSON record of a finished loop.
+fn report_of(cfg: &TargetConfig, out: &TargetOutcome) -> report::TargetReport {
+    let den: f64 = out.estimate.reflected_l1.iter().sum();
+    report::TargetReport {
+        target: cfg.target,
+        reached: out.reached,
+        stop_reason: out.stop_reason.clone(),
+        estimate: out.estimate.relative_l1,
+        residual: if den > 0.0 {
+            out.estimate.residual_l1.iter().sum::<f64>() / den
+        } else {
+            0.0
+        },
+        basis: out.choice.basis.name(),
+        basis_reason: out.choice.basis_reason.clone(),
+        eps: out.choice.eps,
+        eps_reason: out.choice.eps_reason.clone(),
+        tolerance: out.choice.tolerance,
+        rounds: out
+            .rounds
+            .iter()
+            .map(|r| report::TargetRound {
+                links: r.links,
+                leaves: r.leaves,
+                refined: r.refined,
+                estimate: r.estimate,
+                time_refine_s: secs(r.time_refine),
+                time_solve_s: secs(r.time_solve),
+                time_estimate_s: secs(r.time_estimate),
+                estimate_rays: r.estimate_rays,
+            })
+            .collect(),
+    }
+}
+
+impl Method for Target {
+    fn info(&self, base: report::MethodInfo) -> report::MethodInfo {
+        let c = &self.cfg.solver;
+        report::MethodInfo {
+            name: "gather".into(),
+            basis: self.cfg.basis.map(|b| b.name()),
+            oracle: Some("brightness".into()),
+            max_level: Some(c.max_level),
+            min_area: Some(c.min_area),
+            solver: Some(name_of(self.solver)),
+            max_iterations: Some(c.max_iterations),
+            visibility: Some(name_of(self.visibility)),
+            quad: Some(c.quad_points),
+            ..base
+        }
+    }
+
+    fn run(&self, job: &Job<'_>, stats: &mut report::Statistics) -> anyhow::Result<Outcome> {
+        let sp = progress::spinner(job.show_progress, "refining, solving and estimating");
+        let out = solve_to_target(job.scene, &self.cfg);
+        sp.finish_and_clear();
+        let out = out.with_context(|| format!("solving {:?} failed", job.args.scene))?;
+        stats.target = Some(report_of(&self.cfg, &out));
+        stats.time_s.estimate = out.rounds.iter().map(|r| secs(r.time_estimate)).sum();
+        finish(job, out.solution, stats)
+    }
+
+    fn describe(&self, r: &report::Result) -> String {
+        let c = &self.cfg.solver;
+        let t = r.statistics.target.as_ref();
+        format!(
+            "wavelet radiosity (gather) to target error {:.3}%: estimate {} after {} rounds ({}), basis {}, max level {} (safety limit), {} solver, {} visibility, {}x{} quadrature",
+            100.0 * self.cfg.target,
+            t.map_or("?".into(), |t| format!("{:.3}%", 100.0 * t.estimate)),
+            t.map_or(0, |t| t.rounds.len()),
+            t.map_or("?".into(), |t| t.stop_reason.clone()),
+            t.map_or("?".into(), |t| t.basis.clone()),
+            c.max_level,
+            name_of(self.solver),
+            name_of(self.visibility),
+            c.quad_points,
+            c.quad_points,
+        )
+    }
+}
