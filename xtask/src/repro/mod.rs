@@ -9,6 +9,7 @@ pub mod ziegler_3_1_4;
 use crate::report::Report;
 use crate::reproduce::Ctx;
 
+mod glossy_fig13;
 mod glossy_ward;
 mod speed_accuracy;
 mod standard;
@@ -99,6 +100,13 @@ pub fn all() -> Vec<Reproduction> {
             seed_file: "004_cb5b08859768bf36.txt",
             title: "Standard vs non-standard decomposition of the same links: sparsity, solve cost, agreement",
             run: standard::run,
+        },
+        Reproduction {
+            id: "glossy-fig13",
+            source: "Glossy §7.1, Figs. 12–15",
+            seed_file: "003_fdfe6675de3bf6ad.txt",
+            title: "Three patches: glossy radiance convergence; patch 3 without importance, with it, with gather",
+            run: glossy_fig13::run,
         },
         Reproduction {
             id: "glossy-ward",
