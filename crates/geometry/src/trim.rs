@@ -579,6 +579,38 @@ impl TrimRegion {
         (self.lo, self.hi)
     }
 
+    /// Smallest and largest winding number over the region's cells (the gaps between
+    /// consecutive boundary pieces of every slab, and the outside, winding 0), ignoring
+    /// cells thinner than `tol` (slab height, or gap width at mid-height), where
+    /// coincident boundary pieces make the order, and so the winding, arbitrary.
+    ///
+    /// A region is a proper point set bounded by its loops (outer loops
+    /// counter-clockwise, holes clockwise, inside their outer loop and disjoint, no loop
+    /// crossing itself or another) exactly when this is `(0, 1)`: a hole outside its
+    /// outer loop or two overlapping holes give `−1`, a loop winding twice or two
+    /// overlapping outer loops `2`.
+    pub fn winding_bounds(&self, tol: f64) -> (i32, i32) {
+        let (mut lo, mut hi) = (0, 0);
+        for (k, slab) in self.slabs.iter().enumerate() {
+            let (y0, y1) = (self.ys[k], self.ys[k + 1]);
+            if y1 - y0 <= tol || y1.is_nan() || y0.is_nan() {
+                continue;
+            }
+            let ym = 0.5 * (y0 + y1);
+            let all = slab.prefix[slab.pieces.len()];
+            for m in 0..slab.pieces.len().saturating_sub(1) {
+                let width = slab.pieces[m + 1].x_at(ym) - slab.pieces[m].x_at(ym);
+                if width <= tol || width.is_nan() {
+                    continue;
+                }
+                let w = all - slab.prefix[m + 1];
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+        }
+        (lo, hi)
+    }
+
     /// Number of slabs in the decomposition.
     pub fn slab_count(&self) -> usize {
         self.slabs.len()
