@@ -26,7 +26,7 @@ pub(crate) fn one_sided(scene: &mut Scene, name: &str, shape: Shape, material: u
 
 /// A planar quad (corners in boundary order) as a two-triangle mesh; the pair merges
 /// into one parallelogram when the quad is an exact parallelogram.
-fn quad_mesh(quads: &[[[f64; 3]; 4]], scale: f64) -> Shape {
+pub(crate) fn quad_mesh(quads: &[[[f64; 3]; 4]], scale: f64) -> Shape {
     let mut positions = Vec::new();
     let mut tris = Vec::new();
     for q in quads {
@@ -59,40 +59,40 @@ pub(crate) fn rect_with_hole(frame: PlaneFrame, outer: [DVec2; 2], hole: [DVec2;
 // ---------------------------------------------------------------------------------
 
 /// Millimetres to metres.
-const MM: f64 = 1e-3;
+pub(crate) const MM: f64 = 1e-3;
 
 /// The Cornell box measured geometry (Cornell University Program of Computer
 /// Graphics, "Cornell Box Data", <https://www.graphics.cornell.edu/online/box/data.html>),
 /// in millimetres, each quad counter-clockwise seen from its front (inside the box for
 /// walls, outside for blocks). The ceiling (556 × 559.2 at `y = 548.8`) and the light
 /// are built separately (see [`cornell_box`]).
-const CORNELL_FLOOR: [[f64; 3]; 4] = [
+pub(crate) const CORNELL_FLOOR: [[f64; 3]; 4] = [
     [552.8, 0.0, 0.0],
     [0.0, 0.0, 0.0],
     [0.0, 0.0, 559.2],
     [549.6, 0.0, 559.2],
 ];
-const CORNELL_BACK: [[f64; 3]; 4] = [
+pub(crate) const CORNELL_BACK: [[f64; 3]; 4] = [
     [549.6, 0.0, 559.2],
     [0.0, 0.0, 559.2],
     [0.0, 548.8, 559.2],
     [556.0, 548.8, 559.2],
 ];
 /// Right wall (green), seen from the camera.
-const CORNELL_RIGHT: [[f64; 3]; 4] = [
+pub(crate) const CORNELL_RIGHT: [[f64; 3]; 4] = [
     [0.0, 0.0, 559.2],
     [0.0, 0.0, 0.0],
     [0.0, 548.8, 0.0],
     [0.0, 548.8, 559.2],
 ];
 /// Left wall (red), seen from the camera.
-const CORNELL_LEFT: [[f64; 3]; 4] = [
+pub(crate) const CORNELL_LEFT: [[f64; 3]; 4] = [
     [552.8, 0.0, 0.0],
     [549.6, 0.0, 559.2],
     [556.0, 548.8, 559.2],
     [556.0, 548.8, 0.0],
 ];
-const CORNELL_SHORT_BLOCK: [[[f64; 3]; 4]; 5] = [
+pub(crate) const CORNELL_SHORT_BLOCK: [[[f64; 3]; 4]; 5] = [
     [
         [130.0, 165.0, 65.0],
         [82.0, 165.0, 225.0],
@@ -124,7 +124,7 @@ const CORNELL_SHORT_BLOCK: [[[f64; 3]; 4]; 5] = [
         [82.0, 0.0, 225.0],
     ],
 ];
-const CORNELL_TALL_BLOCK: [[[f64; 3]; 4]; 5] = [
+pub(crate) const CORNELL_TALL_BLOCK: [[[f64; 3]; 4]; 5] = [
     [
         [423.0, 330.0, 247.0],
         [265.0, 330.0, 296.0],
@@ -157,9 +157,9 @@ const CORNELL_TALL_BLOCK: [[[f64; 3]; 4]; 5] = [
     ],
 ];
 /// Ceiling extent in x and z (mm) at height 548.8.
-const CORNELL_CEILING: [f64; 3] = [556.0, 548.8, 559.2];
+pub(crate) const CORNELL_CEILING: [f64; 3] = [556.0, 548.8, 559.2];
 /// Light: x ∈ [213, 343], z ∈ [227, 332] (mm), at the ceiling height.
-const CORNELL_LIGHT: [[f64; 2]; 2] = [[213.0, 227.0], [343.0, 332.0]];
+pub(crate) const CORNELL_LIGHT: [[f64; 2]; 2] = [[213.0, 227.0], [343.0, 332.0]];
 
 /// White (floor, ceiling, back wall, blocks) diffuse reflectance, as in the widely
 /// used RGB conversion of the measured spectra (B. Bitterli, "Rendering resources",

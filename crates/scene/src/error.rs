@@ -190,9 +190,15 @@ pub enum WarningKind {
         /// How many were dropped.
         count: usize,
     },
-    /// A surface of zero area (e.g. a mesh all of whose triangles were degenerate, or a
-    /// zero-area parallelogram) was dropped.
-    ZeroAreaSurfaceDropped,
+    /// A group of connected coplanar triangles was kept as triangles instead of one
+    /// polygon, because its boundary could not be made a proper region (mesh
+    /// grouping, [`crate::group`]).
+    GroupingFallback {
+        /// Triangles in the group.
+        triangles: usize,
+        /// Why, in words.
+        reason: String,
+    },
     /// A reflectance component `>= 1` or `< 0` was clamped (only under
     /// [`crate::ReflectancePolicy::Clamp`]).
     ReflectanceClamped {
@@ -231,7 +237,10 @@ impl fmt::Display for Warning {
             WarningKind::DegenerateTrianglesDropped { count } => {
                 write!(f, "dropped {count} degenerate (zero-area) triangle(s)")
             }
-            WarningKind::ZeroAreaSurfaceDropped => write!(f, "dropped zero-area surface"),
+            WarningKind::GroupingFallback { triangles, reason } => write!(
+                f,
+                "kept {triangles} coplanar triangles as triangles, not one polygon: {reason}"
+            ),
             WarningKind::ReflectanceClamped { from, to } => {
                 write!(f, "reflectance {from} clamped to {to}")
             }

@@ -6,8 +6,12 @@
 //!   composed down the hierarchy in `f64`; a negative-determinant transform flips the
 //!   winding so that the front side stays the glTF front side;
 //! - every triangle mesh primitive (`TRIANGLES`, `TRIANGLE_STRIP`, `TRIANGLE_FAN`)
-//!   becomes one [`Surface`] holding a [`TriangleMesh`] (degenerate triangles dropped
-//!   with a counted warning, exact parallelogram pairs merged); points and lines are
+//!   becomes a [`TriangleMesh`] (degenerate triangles dropped with a counted warning,
+//!   exact parallelogram pairs merged; a primitive with no area left is an error),
+//!   whose connected coplanar triangles are grouped into complex polygons
+//!   ([`crate::group`], unless [`GltfOptions::grouping`] says otherwise): one
+//!   [`Surface`] when the primitive is one polygon or one mesh, else one per polygon
+//!   (`.face{k}`) and one for the triangles left over (`.rest`); points and lines are
 //!   skipped with a warning; names: node name, else mesh name, else `mesh{m}`, with
 //!   `.prim{p}` appended when the mesh has several primitives or no name;
 //! - materials: `baseColorFactor.rgb` (× `baseColorTexture`, sRGB-decoded) is the
@@ -34,6 +38,7 @@ use gltf::mesh::Mode;
 
 use crate::camera::{Camera, Projection};
 use crate::error::{MEMORY_FILE, SceneError, Warning, WarningKind};
+use crate::group::{MeshGrouping, MeshPart, group_mesh};
 use crate::material::{Material, ReflectancePolicy, Rgb, Texture, TextureRef, srgb_to_linear};
 use crate::scene::{MaterialId, Scene, Sidedness, Surface};
 use crate::shape::{Shape, TriangleMesh};
@@ -47,6 +52,10 @@ pub struct GltfOptions {
     /// Skip decoding textures: materials then keep only their factors (the texture
     /// is recorded as an [`WarningKind::Ignored`] warning).
     pub skip_textures: bool,
+    /// How triangle meshes become surfaces: grouped into the polygons they tile (the
+    /// default), or kept as triangles ([`MeshGrouping::Triangles`]). Textured meshes
+    /// are always kept as triangles (polygons carry no texture coordinates).
+    pub grouping: MeshGrouping,
 }
 
 /// Supported `extensionsRequired` entries.
@@ -474,8 +483,14 @@ impl<'a> Loader<'a> {
                 );
             }
             if build.mesh.element_count() == 0 {
-                self.warn(element, WarningKind::ZeroAreaSurfaceDropped);
-                continue;
+                return Err(SceneError::Degenerate {
+                    file: self.file.into(),
+                    element,
+                    what: format!(
+                        "all {} triangles have zero area: the surface has zero area",
+                        tris.len()
+                    ),
+                });
             }
             let gmat = prim.material();
             let material = self.material(&gmat, build.mesh.uv_sets.len())?;
@@ -484,12 +499,28 @@ impl<'a> Loader<'a> {
             } else {
                 Sidedness::OneSided
             };
-            self.scene.add_surface(Surface {
-                name,
-                shape: Shape::Mesh(build.mesh),
-                material,
-                sides,
-            });
+            let m = &self.scene.materials[material];
+            let textured = m.reflectance_texture.is_some() || m.emission_texture.is_some();
+            let parts = if self.options.grouping == MeshGrouping::Surfaces && !textured {
+                let grouped = group_mesh(&build.mesh, self.file, &element)?;
+                for w in grouped.warnings {
+                    self.warn(element.clone(), w);
+                }
+                grouped.parts
+            } else {
+                vec![MeshPart {
+                    suffix: String::new(),
+                    shape: Shape::Mesh(build.mesh),
+                }]
+            };
+            for part in parts {
+                self.scene.add_surface(Surface {
+                    name: format!("{name}{}", part.suffix),
+                    shape: part.shape,
+                    material,
+                    sides,
+                });
+            }
         }
         Ok(())
     }

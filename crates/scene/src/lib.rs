@@ -7,8 +7,11 @@
 //! - [`shape`]: triangles, parallelograms, triangle meshes with exact parallelogram
 //!   merging, complex polygons with arcs and holes (VirtualMesh §3.2), Bézier patches;
 //! - [`light`]: punctual point and spot lights (glTF `KHR_lights_punctual` falloff);
+//! - [`group`]: mesh grouping — connected coplanar triangles become the complex
+//!   polygons they tile, so a meshed wall, disk or floor with holes is one surface;
 //! - [`medium`]: voxel grids of source, opacity and albedo (GlobalCube §2.1, §3.1);
-//! - [`gltf_load`]: glTF 2.0 (`.gltf`, `.glb`) loader;
+//! - [`gltf_load`]: glTF 2.0 (`.gltf`, `.glb`) loader; [`gltf_write`]: the GLB writer
+//!   of scenes made of triangles, parallelograms and meshes;
 //! - [`native`]: the native TOML format (documented in `docs/scene-format.md`);
 //! - [`analytic`]: trimmed analytic patches on `wavelux-param`'s equal-area maps;
 //! - [`builtin`]: Cornell box, Ziegler §4.1.1 and §4.2.1 scenes, white furnace, and
@@ -19,7 +22,9 @@
 //!   quadric teapot, chess set;
 //! - [`tessellated`]: their tessellated baselines (VirtualMesh §6.1–6.2);
 //! - [`office`]: a furnished office of 343 surfaces lit by one tube in a louvred
-//!   luminaire (the larger benchmark of the speed–accuracy report).
+//!   luminaire (the larger benchmark of the speed–accuracy report);
+//! - [`fixtures`]: scenes as tessellating exporters write them (disks in rings, a UV
+//!   sphere, the Cornell box with one surface per face), for measuring mesh grouping.
 //!
 //! # Radiometric conventions
 //!
@@ -40,8 +45,11 @@ pub mod analytic;
 pub mod builtin;
 pub mod camera;
 pub mod error;
+pub mod fixtures;
 pub mod gltf_load;
 pub mod light;
+pub mod gltf_write;
+pub mod group;
 pub mod material;
 pub mod medium;
 pub mod meshless_scenes;
@@ -59,28 +67,48 @@ pub use camera::{Camera, Projection};
 pub use error::{SceneError, Warning, WarningKind};
 pub use gltf_load::{GltfOptions, load_gltf, load_gltf_slice};
 pub use light::{Light, LightKind};
+pub use gltf_write::{to_glb, write_glb};
+pub use group::{Grouped, MeshGrouping, MeshPart, group_mesh};
 pub use material::{
     EmissionProfile, Material, ReflectancePolicy, Rgb, Texture, TextureRef, WardParams,
 };
 pub use medium::Medium;
-pub use native::{load_native, parse_native};
+pub use native::{load_native, load_native_with, parse_native};
 pub use scene::{DefaultValue, MaterialId, Scene, Sidedness, Surface};
 pub use shape::{
     BezierPatch, Loop, LoopEdge, MeshElement, PlaneFrame, PolygonShape, Shape, TriangleMesh,
 };
 pub use tessellated::{TessellateOptions, primitive_count, tessellated};
 
+/// Options shared by the loaders.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct LoadOptions {
+    /// How triangle meshes (glTF primitives, native `mesh` surfaces) become surfaces.
+    pub grouping: MeshGrouping,
+}
+
 /// Loads a scene file, choosing the loader by extension: `.gltf`/`.glb` (glTF 2.0 with
 /// default [`GltfOptions`]) or `.toml` (native format).
 pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+    load_with(path, &LoadOptions::default())
+}
+
+/// [`load`] with loader options.
+pub fn load_with(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Scene, SceneError> {
     let path = path.as_ref();
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
     match ext.as_deref() {
-        Some("gltf" | "glb") => load_gltf(path, &GltfOptions::default()),
-        Some("toml") => load_native(path),
+        Some("gltf" | "glb") => load_gltf(
+            path,
+            &GltfOptions {
+                grouping: options.grouping,
+                ..GltfOptions::default()
+            },
+        ),
+        Some("toml") => load_native_with(path, options),
         _ => Err(SceneError::UnknownFormat {
             file: path.display().to_string(),
         }),

@@ -13,10 +13,12 @@ use std::path::{Path, PathBuf};
 use glam::{DMat4, DVec2, DVec3};
 use serde::Deserialize;
 
+use crate::LoadOptions;
 use crate::analytic::{AnalyticPatch, AnalyticSurface, Placement, Region};
 use crate::camera::Camera;
 use crate::error::{MEMORY_FILE, SceneError, Warning, WarningKind};
 use crate::gltf_load::{GltfOptions, load_gltf};
+use crate::group::{MeshGrouping, MeshPart, group_mesh};
 use crate::material::{EmissionProfile, Material, ReflectancePolicy, Rgb, WardParams};
 use crate::medium::Medium;
 use crate::scene::{DefaultValue, Scene, Sidedness, Surface};
@@ -352,11 +354,24 @@ fn light_from_spec(l: &LightSpec, file: &str) -> Result<crate::light::Light, Sce
 /// Loads a native `.toml` scene file (and everything it includes; relative include
 /// paths resolve against the including file's directory).
 pub fn load_native(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
-    let mut stack = Vec::new();
-    load_native_rec(path.as_ref(), &mut stack)
+    load_native_with(path, &LoadOptions::default())
 }
 
-fn load_native_rec(path: &Path, stack: &mut Vec<PathBuf>) -> Result<Scene, SceneError> {
+/// [`load_native`] with loader options (mesh grouping of `mesh` surfaces and of
+/// included glTF files).
+pub fn load_native_with(
+    path: impl AsRef<Path>,
+    options: &LoadOptions,
+) -> Result<Scene, SceneError> {
+    let mut stack = Vec::new();
+    load_native_rec(path.as_ref(), &mut stack, options)
+}
+
+fn load_native_rec(
+    path: &Path,
+    stack: &mut Vec<PathBuf>,
+    options: &LoadOptions,
+) -> Result<Scene, SceneError> {
     let file = path.display().to_string();
     let canon = std::fs::canonicalize(path).map_err(|e| SceneError::Io {
         file: file.clone(),
@@ -377,7 +392,7 @@ fn load_native_rec(path: &Path, stack: &mut Vec<PathBuf>) -> Result<Scene, Scene
     })?;
     stack.push(canon);
     let base = path.parent().unwrap_or(Path::new("."));
-    let result = parse_inner(&text, &file, Some(base), stack);
+    let result = parse_inner(&text, &file, Some(base), stack, options);
     stack.pop();
     let mut scene = result?;
     if scene.name.is_empty() {
@@ -393,7 +408,7 @@ fn load_native_rec(path: &Path, stack: &mut Vec<PathBuf>) -> Result<Scene, Scene
 /// Parses native-format text. `file` names the source in errors; `base` resolves
 /// includes (`None`: includes are an error).
 pub fn parse_native(text: &str, file: &str, base: Option<&Path>) -> Result<Scene, SceneError> {
-    parse_inner(text, file, base, &mut Vec::new())
+    parse_inner(text, file, base, &mut Vec::new(), &LoadOptions::default())
 }
 
 fn degrees(r: Option<[f64; 2]>, default: (f64, f64)) -> (f64, f64) {
@@ -621,6 +636,7 @@ fn parse_inner(
     file: &str,
     base: Option<&Path>,
     stack: &mut Vec<PathBuf>,
+    options: &LoadOptions,
 ) -> Result<Scene, SceneError> {
     let spec: FileSpec = toml::from_str(text).map_err(|e| SceneError::Native {
         file: file.into(),
@@ -663,11 +679,12 @@ fn parse_inner(
                         Some(max) => ReflectancePolicy::Clamp { max },
                         None => ReflectancePolicy::Reject,
                     },
+                    grouping: options.grouping,
                     ..GltfOptions::default()
                 };
                 load_gltf(&path, &options)?
             }
-            Some("toml") => load_native_rec(&path, stack)?,
+            Some("toml") => load_native_rec(&path, stack, options)?,
             _ => {
                 return Err(SceneError::UnknownFormat {
                     file: path.display().to_string(),
@@ -752,47 +769,54 @@ fn parse_inner(
                 kind: WarningKind::DegenerateTrianglesDropped { count: dropped },
             });
         }
-        let zero_mesh = matches!(&shape, Shape::Mesh(m) if m.element_count() == 0);
-        let zero_flat = match &shape {
-            Shape::Triangle([a, b, c]) => {
-                a.is_finite()
-                    && b.is_finite()
-                    && c.is_finite()
-                    && crate::shape::is_degenerate(*b - *a, *c - *a)
-            }
-            Shape::Parallelogram { edge_u, edge_v, .. } => {
-                edge_u.is_finite()
-                    && edge_v.is_finite()
-                    && crate::shape::is_degenerate(*edge_u, *edge_v)
-            }
-            _ => false,
-        };
-        if zero_mesh || zero_flat {
-            scene.warnings.push(Warning {
+        // Zero or non-finite area is an error here (never a surface dropped).
+        shape.validate(file, &element)?;
+        let tangent = s.tangent.map(DVec3::from_array);
+        if let Some(t) = tangent
+            && !(t.is_finite() && t.length() > 0.0)
+        {
+            return Err(SceneError::Malformed {
                 file: file.into(),
                 element,
-                kind: WarningKind::ZeroAreaSurfaceDropped,
+                what: format!("tangent {t} must be finite and non-zero"),
             });
-            continue;
         }
-        shape.validate(file, &element)?;
-        if let Some(t) = s.tangent {
-            let t = DVec3::from_array(t);
-            if !(t.is_finite() && t.length() > 0.0) {
-                return Err(SceneError::Malformed {
+        let parts = match shape {
+            Shape::Mesh(m) if options.grouping == MeshGrouping::Surfaces => {
+                let grouped = group_mesh(&m, file, &element)?;
+                for kind in grouped.warnings {
+                    scene.warnings.push(Warning {
+                        file: file.into(),
+                        element: element.clone(),
+                        kind,
+                    });
+                }
+                grouped.parts
+            }
+            shape => vec![MeshPart {
+                suffix: String::new(),
+                shape,
+            }],
+        };
+        for part in parts {
+            let name = format!("{}{}", s.name, part.suffix);
+            if scene.surface(&name).is_some() {
+                return Err(SceneError::DuplicateName {
                     file: file.into(),
-                    element,
-                    what: format!("tangent {t} must be finite and non-zero"),
+                    kind: "surface".into(),
+                    name,
                 });
             }
-            scene.tangents.insert(s.name.clone(), t);
+            if let Some(t) = tangent {
+                scene.tangents.insert(name.clone(), t);
+            }
+            scene.surfaces.push(Surface {
+                name,
+                shape: part.shape,
+                material,
+                sides,
+            });
         }
-        scene.surfaces.push(Surface {
-            name: s.name.clone(),
-            shape,
-            material,
-            sides,
-        });
     }
 
     // Media.

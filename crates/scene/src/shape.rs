@@ -107,7 +107,8 @@ pub struct MeshBuild {
 }
 
 impl TriangleMesh {
-    /// Builds a mesh from positions and triangles: validates indices and coordinates,
+    /// Builds a mesh from positions and triangles: validates indices, coordinates and
+    /// areas (a triangle whose area overflows is a [`SceneError::NonFinite`] error),
     /// drops degenerate triangles (counted in [`MeshBuild::dropped`]) and merges exact
     /// parallelogram pairs.
     ///
@@ -154,6 +155,15 @@ impl TriangleMesh {
                 }
             }
             let [a, b, c] = tri.map(|i| positions[i as usize]);
+            let twice = (b - a).cross(c - a).length();
+            if !twice.is_finite() {
+                return Err(SceneError::NonFinite {
+                    file: file.into(),
+                    element: element.into(),
+                    what: format!("area of triangle {t}"),
+                    value: 0.5 * twice,
+                });
+            }
             if is_degenerate(b - a, c - a) || is_degenerate(c - b, a - b) {
                 dropped += 1;
             } else {
@@ -486,7 +496,17 @@ pub struct PolygonShape {
 }
 
 impl PolygonShape {
-    /// Area: `|outer| − Σ |hole|` (holes are assumed inside and disjoint).
+    /// Checks that the loops bound a proper region: no loop crosses itself, every hole
+    /// lies inside the outer loop, no two holes overlap (touching along an edge or at a
+    /// point is allowed). Exactly then [`PolygonShape::area`] is the region's area.
+    ///
+    /// # Errors
+    /// [`SceneError::Malformed`] naming `file`, `element` and the offending loop.
+    pub fn check_region(&self, file: &str, element: &str) -> Result<(), SceneError> {
+        check_loops(&self.outer, &self.holes, file, element, "")
+    }
+
+    /// Area: `|outer| − Σ |hole|` (exact when [`PolygonShape::check_region`] holds).
     pub fn area(&self) -> f64 {
         self.outer.signed_area().abs()
             - self
@@ -666,19 +686,54 @@ impl Shape {
     }
 
     /// Checks coordinates (finite), structure (indices, loop closure, control-point
-    /// counts) and non-degeneracy (zero area is an error here: loaders drop such
-    /// surfaces with a warning before calling this).
+    /// counts, holes inside their outer loop and disjoint, no loop crossing itself) and
+    /// the area: zero or non-finite area (e.g. a parallelogram with `1e308` edges) is an
+    /// error, never a surface silently dropped.
     pub fn validate(&self, file: &str, element: &str) -> Result<(), SceneError> {
+        self.validate_structure(file, element)?;
+        let area = self.area();
+        if !area.is_finite() {
+            return Err(SceneError::NonFinite {
+                file: file.into(),
+                element: element.into(),
+                what: "area".into(),
+                value: area,
+            });
+        }
+        if !(area > 0.0) {
+            return Err(SceneError::Degenerate {
+                file: file.into(),
+                element: element.into(),
+                what: format!("surface has zero area ({area})"),
+            });
+        }
+        Ok(())
+    }
+
+    fn validate_structure(&self, file: &str, element: &str) -> Result<(), SceneError> {
         let degenerate = |what: &str| SceneError::Degenerate {
             file: file.into(),
             element: element.into(),
             what: what.into(),
+        };
+        let finite_area = |area: f64| {
+            if area.is_finite() {
+                Ok(())
+            } else {
+                Err(SceneError::NonFinite {
+                    file: file.into(),
+                    element: element.into(),
+                    what: "area".into(),
+                    value: area,
+                })
+            }
         };
         match self {
             Self::Triangle(v) => {
                 for (i, p) in v.iter().enumerate() {
                     check_finite(*p, file, element, &format!("vertex {i}"))?;
                 }
+                finite_area(self.area())?;
                 if is_degenerate(v[1] - v[0], v[2] - v[0]) {
                     return Err(degenerate("triangle has zero area"));
                 }
@@ -691,6 +746,7 @@ impl Shape {
                 check_finite(*origin, file, element, "origin")?;
                 check_finite(*edge_u, file, element, "edge_u")?;
                 check_finite(*edge_v, file, element, "edge_v")?;
+                finite_area(self.area())?;
                 if is_degenerate(*edge_u, *edge_v) {
                     return Err(degenerate("parallelogram has zero area"));
                 }
@@ -736,10 +792,7 @@ impl Shape {
                 for (i, h) in p.holes.iter().enumerate() {
                     h.validate(file, element, &format!("hole {i}"))?;
                 }
-                let a = p.area();
-                if !(a > 0.0) {
-                    return Err(degenerate("polygon has zero or negative area"));
-                }
+                p.check_region(file, element)?;
             }
             Self::Bezier(b) => {
                 b.validate(file, element)?;
@@ -751,6 +804,7 @@ impl Shape {
                     for (i, h) in r.holes.iter().enumerate() {
                         h.validate(file, element, &format!("trim hole {i}"))?;
                     }
+                    check_loops(&r.outer, &r.holes, file, element, "trim ")?;
                 }
                 p.surface.parametrization(file, element)?;
                 self.primitives(file, element)?;
@@ -927,6 +981,81 @@ fn trim_region(
         loops.push(h.to_trim_loop(false, file, element)?);
     }
     wavelux_geometry::TrimRegion::new(loops).map_err(|e| gerr(file, element, e))
+}
+
+/// The region's winding numbers are all 0 or 1 (cells thinner than `1e-12 ×` the loops'
+/// extent ignored; see [`wavelux_geometry::TrimRegion::winding_bounds`]).
+fn is_simple(
+    loops: &[(&Loop, bool)],
+    file: &str,
+    element: &str,
+    size: f64,
+) -> Result<bool, SceneError> {
+    let mut trims = Vec::with_capacity(loops.len());
+    for (l, ccw) in loops {
+        trims.push(l.to_trim_loop(*ccw, file, element)?);
+    }
+    let region = wavelux_geometry::TrimRegion::new(trims).map_err(|e| gerr(file, element, e))?;
+    let (lo, hi) = region.winding_bounds(1e-12 * size);
+    Ok(lo >= 0 && hi <= 1)
+}
+
+/// Checks an outer loop and its holes (see [`PolygonShape::check_region`]); `which`
+/// prefixes the loop names (`"trim "` for trims).
+fn check_loops(
+    outer: &Loop,
+    holes: &[Loop],
+    file: &str,
+    element: &str,
+    which: &str,
+) -> Result<(), SceneError> {
+    let mut lo = DVec2::splat(f64::INFINITY);
+    let mut hi = DVec2::splat(f64::NEG_INFINITY);
+    for e in &outer.edges {
+        lo = lo.min(e.start());
+        hi = hi.max(e.start());
+        if let LoopEdge::Arc { center, start, .. } = e {
+            let r = (*start - *center).length();
+            lo = lo.min(*center - DVec2::splat(r));
+            hi = hi.max(*center + DVec2::splat(r));
+        }
+    }
+    let size = (hi - lo).length();
+    let mut all = vec![(outer, true)];
+    all.extend(holes.iter().map(|h| (h, false)));
+    if is_simple(&all, file, element, size)? {
+        return Ok(());
+    }
+    let bad = |what: String| SceneError::Malformed {
+        file: file.into(),
+        element: element.into(),
+        what,
+    };
+    if !is_simple(&[(outer, true)], file, element, size)? {
+        return Err(bad(format!("{which}outer loop crosses or overlaps itself")));
+    }
+    for (i, h) in holes.iter().enumerate() {
+        if !is_simple(&[(h, true)], file, element, size)? {
+            return Err(bad(format!("{which}hole {i} crosses or overlaps itself")));
+        }
+    }
+    for (i, h) in holes.iter().enumerate() {
+        if !is_simple(&[(outer, true), (h, false)], file, element, size)? {
+            return Err(bad(format!(
+                "{which}hole {i} is not inside the outer loop (it lies outside or crosses it)"
+            )));
+        }
+    }
+    if holes.len() <= 64 {
+        for i in 0..holes.len() {
+            for j in i + 1..holes.len() {
+                if !is_simple(&[(&holes[i], true), (&holes[j], true)], file, element, size)? {
+                    return Err(bad(format!("{which}holes {i} and {j} overlap")));
+                }
+            }
+        }
+    }
+    Err(bad(format!("{which}holes overlap each other")))
 }
 
 impl Shape {

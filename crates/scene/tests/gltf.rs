@@ -288,7 +288,8 @@ fn degenerate_triangles_are_dropped_with_a_count() {
         [&WarningKind::DegenerateTrianglesDropped { count: 2 }]
     );
     assert_eq!(s.warnings[0].file, "t.gltf");
-    // A primitive made only of degenerate triangles is dropped as a surface.
+    // A primitive made only of degenerate triangles has zero area: a typed error naming
+    // the file and the primitive, not a surface silently dropped.
     let text = gltf_embedded(
         &[MeshSpec::new(
             "flat",
@@ -299,13 +300,13 @@ fn degenerate_triangles_are_dropped_with_a_count() {
         &[MatSpec::grey("w", 0.5)],
         &[],
     );
-    let s = load_gltf_slice(text.as_bytes(), "t.gltf", None, &opts()).unwrap();
-    assert!(s.surfaces.is_empty());
-    assert!(
-        s.warnings
-            .iter()
-            .any(|w| w.kind == WarningKind::ZeroAreaSurfaceDropped)
-    );
+    match load_gltf_slice(text.as_bytes(), "t.gltf", None, &opts()) {
+        Err(SceneError::Degenerate { file, element, .. }) => {
+            assert_eq!(file, "t.gltf");
+            assert!(element.contains("mesh 0 primitive 0"), "{element}");
+        }
+        other => panic!("expected a zero-area error, got {other:?}"),
+    }
 }
 
 #[test]

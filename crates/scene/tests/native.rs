@@ -9,7 +9,8 @@ use std::f64::consts::PI;
 use common::{MatSpec, MeshSpec, gltf_embedded, unit_square};
 use proptest::prelude::*;
 use wavelux_scene::{
-    DefaultValue, EmissionProfile, SceneError, Shape, Sidedness, load, load_native, parse_native,
+    DefaultValue, EmissionProfile, SceneError, Shape, Sidedness, WarningKind, load, load_native,
+    parse_native,
 };
 
 const SHOWCASE: &str = include_str!("data/showcase.toml");
@@ -300,20 +301,60 @@ fn bad_input_gives_typed_errors_naming_file_and_element() {
 }
 
 #[test]
-fn degenerate_geometry_is_dropped_with_a_warning() {
+fn degenerate_triangles_are_dropped_with_a_warning_but_zero_area_surfaces_are_errors() {
     let mat = "[[material]]\nname = \"m\"\nreflectance = 0.5\n";
-    let s = parse_native(
-        &format!(
-            "{mat}[[surface]]\nname = \"flat\"\nmaterial = \"m\"\nshape = {{ type = \"parallelogram\", origin = [0,0,0], edge_u = [1,0,0], edge_v = [2,0,0] }}\n\
-             [[surface]]\nname = \"m2\"\nmaterial = \"m\"\nshape = {{ type = \"mesh\", positions = [[0,0,0],[1,0,0],[0,1,0],[2,0,0]], triangles = [[0,1,2],[0,1,3]] }}\n"
-        ),
-        "w.toml",
-        None,
-    )
-    .unwrap();
+    let surf = |shape: &str| {
+        parse_native(
+            &format!("{mat}[[surface]]\nname = \"s\"\nmaterial = \"m\"\nshape = {shape}\n"),
+            "w.toml",
+            None,
+        )
+    };
+    // One degenerate triangle of two: dropped, counted, reported.
+    let s = surf("{ type = \"mesh\", positions = [[0,0,0],[1,0,0],[0,1,0],[2,0,0]], triangles = [[0,1,2],[0,1,3]] }").unwrap();
     assert_eq!(s.surfaces.len(), 1);
-    assert_eq!(s.warnings.len(), 2);
-    assert!(s.warnings.iter().all(|w| w.file == "w.toml"));
+    assert_eq!(
+        s.warnings
+            .iter()
+            .map(|w| (&w.file[..], &w.kind))
+            .collect::<Vec<_>>(),
+        [(
+            "w.toml",
+            &WarningKind::DegenerateTrianglesDropped { count: 1 }
+        )]
+    );
+    // Whole surfaces of zero area are typed errors naming the file and the surface.
+    for shape in [
+        "{ type = \"parallelogram\", origin = [0,0,0], edge_u = [1,0,0], edge_v = [2,0,0] }",
+        "{ type = \"mesh\", positions = [[0,0,0],[1,0,0],[2,0,0]], triangles = [[0,1,2]] }",
+        "{ type = \"triangle\", vertices = [[0,0,0],[1,1,1],[2,2,2]] }",
+    ] {
+        match surf(shape) {
+            Err(SceneError::Degenerate { file, element, .. }) => {
+                assert_eq!(file, "w.toml");
+                assert_eq!(element, "surface \"s\"");
+            }
+            other => panic!("{shape}: expected a zero-area error, got {other:?}"),
+        }
+    }
+    // An emitter with 1e308 edges has an infinite area: an error, not a vanished light.
+    match surf(
+        "{ type = \"parallelogram\", origin = [0,0,0], edge_u = [1e308,0,0], edge_v = [0,1e308,0] }",
+    ) {
+        Err(SceneError::NonFinite {
+            file,
+            element,
+            what,
+            value,
+        }) => {
+            assert_eq!(
+                (file.as_str(), element.as_str(), what.as_str()),
+                ("w.toml", "surface \"s\"", "area")
+            );
+            assert!(value.is_infinite());
+        }
+        other => panic!("expected a non-finite area error, got {other:?}"),
+    }
 }
 
 proptest! {
@@ -383,5 +424,54 @@ shape = { type = "parallelogram", origin = [0, 0, 1], edge_u = [1, 0, 0], edge_v
             assert!(element.contains("brushed"), "{element}");
         }
         other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn holes_outside_or_overlapping_are_typed_errors() {
+    let poly = |holes: &str| {
+        parse_native(
+            &format!(
+                "[[material]]\nname = \"m\"\nreflectance = 0.5\n\
+                 [[surface]]\nname = \"floor\"\nmaterial = \"m\"\n\
+                 shape = {{ type = \"polygon\", origin = [0,0,0], u = [1,0,0], v = [0,1,0], \
+                 outer = [{{ start = [0,0] }}, {{ start = [1,0] }}, {{ start = [1,1] }}, {{ start = [0,1] }}], \
+                 holes = {holes} }}\n"
+            ),
+            "h.toml",
+            None,
+        )
+    };
+    // Inside: area 1 − 0.25.
+    let s = poly("[[{ start = [0.25,0.25] }, { start = [0.75,0.25] }, { start = [0.75,0.75] }, { start = [0.25,0.75] }]]").unwrap();
+    assert!((s.total_area() - 0.75).abs() < 1e-12);
+    // A hole outside the outer loop used to be accepted with area 1 − 0.5 = 0.5.
+    for (holes, want) in [
+        (
+            "[[{ start = [2,0] }, { start = [3,0] }, { start = [3,0.5] }, { start = [2,0.5] }]]",
+            "hole 0 is not inside the outer loop",
+        ),
+        (
+            "[[{ start = [0.1,0.1] }, { start = [0.6,0.1] }, { start = [0.6,0.6] }, { start = [0.1,0.6] }], \
+              [{ start = [0.4,0.4] }, { start = [0.9,0.4] }, { start = [0.9,0.9] }, { start = [0.4,0.9] }]]",
+            "holes 0 and 1 overlap",
+        ),
+        (
+            "[[{ start = [0.2,0.2] }, { start = [0.8,0.8] }, { start = [0.8,0.2] }, { start = [0.2,0.8] }]]",
+            "hole 0 crosses or overlaps itself",
+        ),
+    ] {
+        match poly(holes) {
+            Err(SceneError::Malformed {
+                file,
+                element,
+                what,
+            }) => {
+                assert_eq!(file, "h.toml");
+                assert_eq!(element, "surface \"floor\"");
+                assert!(what.contains(want), "{what}");
+            }
+            other => panic!("{holes}: expected a typed error, got {other:?}"),
+        }
     }
 }

@@ -406,3 +406,136 @@ proptest! {
         }
     }
 }
+
+/// A polygon in the plane z = 0 with an outer square `[0, 2]²` and these holes.
+fn square_with(holes: Vec<Loop>) -> Shape {
+    Shape::Polygon(PolygonShape {
+        frame: PlaneFrame {
+            origin: DVec3::ZERO,
+            u: DVec3::X,
+            v: DVec3::Y,
+        },
+        outer: Loop::polygon(&[
+            DVec2::new(0.0, 0.0),
+            DVec2::new(2.0, 0.0),
+            DVec2::new(2.0, 2.0),
+            DVec2::new(0.0, 2.0),
+        ]),
+        holes,
+    })
+}
+
+fn square(x: f64, y: f64, side: f64) -> Loop {
+    Loop::polygon(&[
+        DVec2::new(x, y),
+        DVec2::new(x + side, y),
+        DVec2::new(x + side, y + side),
+        DVec2::new(x, y + side),
+    ])
+}
+
+fn malformed(shape: &Shape) -> String {
+    match shape.validate("f.toml", "surface \"p\"") {
+        Err(wavelux_scene::SceneError::Malformed {
+            file,
+            element,
+            what,
+        }) => {
+            assert_eq!(
+                (file.as_str(), element.as_str()),
+                ("f.toml", "surface \"p\"")
+            );
+            what
+        }
+        other => panic!("expected a malformed-region error, got {other:?}"),
+    }
+}
+
+#[test]
+fn holes_must_lie_inside_and_apart() {
+    // Valid: two disjoint holes, a hole touching the outer loop along an edge, a
+    // circular hole; areas are then exact.
+    let ok = square_with(vec![square(0.2, 0.2, 0.5), square(1.0, 1.0, 0.5)]);
+    ok.validate("f", "p").unwrap();
+    assert!((ok.area() - 3.5).abs() < 1e-12);
+    let touching = square_with(vec![square(0.0, 0.5, 0.5)]);
+    touching.validate("f", "p").unwrap();
+    assert!((touching.area() - 3.75).abs() < 1e-12);
+    square_with(vec![Loop::circle(DVec2::new(1.0, 1.0), 0.5)])
+        .validate("f", "p")
+        .unwrap();
+    // A hole outside the outer loop (the area would read 4 − 1 = 3, not 4).
+    let what = malformed(&square_with(vec![square(5.0, 5.0, 1.0)]));
+    assert!(
+        what.contains("hole 0 is not inside the outer loop"),
+        "{what}"
+    );
+    // A hole crossing the outer loop.
+    let what = malformed(&square_with(vec![square(1.5, 1.5, 1.0)]));
+    assert!(what.contains("hole 0 is not inside"), "{what}");
+    // Overlapping and nested holes.
+    let what = malformed(&square_with(vec![
+        square(0.2, 0.2, 0.5),
+        square(0.5, 0.5, 0.5),
+    ]));
+    assert!(what.contains("holes 0 and 1 overlap"), "{what}");
+    let what = malformed(&square_with(vec![
+        square(0.2, 0.2, 1.0),
+        square(0.5, 0.5, 0.2),
+    ]));
+    assert!(what.contains("holes 0 and 1 overlap"), "{what}");
+    // A self-crossing (bow-tie) hole, and a self-crossing outer loop.
+    let bowtie = Loop::polygon(&[
+        DVec2::new(0.5, 0.5),
+        DVec2::new(1.5, 1.5),
+        DVec2::new(1.5, 0.5),
+        DVec2::new(0.5, 1.5),
+    ]);
+    let what = malformed(&square_with(vec![bowtie.clone()]));
+    assert!(what.contains("hole 0 crosses or overlaps itself"), "{what}");
+    let what = malformed(&Shape::Polygon(PolygonShape {
+        frame: PlaneFrame {
+            origin: DVec3::ZERO,
+            u: DVec3::X,
+            v: DVec3::Y,
+        },
+        outer: bowtie,
+        holes: vec![],
+    }));
+    assert!(
+        what.contains("outer loop crosses or overlaps itself"),
+        "{what}"
+    );
+    // Two circular holes overlapping.
+    let what = malformed(&square_with(vec![
+        Loop::circle(DVec2::new(0.8, 1.0), 0.4),
+        Loop::circle(DVec2::new(1.2, 1.0), 0.4),
+    ]));
+    assert!(what.contains("holes 0 and 1 overlap"), "{what}");
+}
+
+#[test]
+fn surfaces_of_zero_or_infinite_area_are_errors() {
+    use wavelux_scene::SceneError;
+    let big = Shape::parallelogram(DVec3::ZERO, DVec3::X * 1e308, DVec3::Y * 1e308);
+    assert!(matches!(
+        big.validate("f", "e"),
+        Err(SceneError::NonFinite { ref what, .. }) if what == "area"
+    ));
+    let tri = Shape::Triangle([DVec3::ZERO, DVec3::X * 1e200, DVec3::Y * 1e200]);
+    assert!(matches!(
+        tri.validate("f", "e"),
+        Err(SceneError::NonFinite { .. })
+    ));
+    let hole_is_all = square_with(vec![square(0.0, 0.0, 2.0)]);
+    assert!(matches!(
+        hole_is_all.validate("f", "e"),
+        Err(SceneError::Degenerate { .. })
+    ));
+    // A mesh triangle whose area overflows is an error naming the triangle.
+    let huge = vec![DVec3::ZERO, DVec3::X * 1e200, DVec3::Y * 1e200];
+    match TriangleMesh::build(huge, vec![], &[[0, 1, 2]], "f", "e") {
+        Err(SceneError::NonFinite { what, .. }) => assert_eq!(what, "area of triangle 0"),
+        other => panic!("expected a non-finite area, got {other:?}"),
+    }
+}

@@ -1,0 +1,615 @@
+//! Mesh grouping: the connected coplanar triangles of one mesh become the complex
+//! polygon they tile, holes and all, so that a wall, a disk or a floor with holes given
+//! as triangles is one surface with one support (VirtualMesh §3.2: a complex polygon's
+//! virtual support is its minimal enclosing parallelogram with the polygon as exact
+//! mask, §4; rectilinear polygons and parallelograms keep exact supports).
+//!
+//! # Algorithm
+//!
+//! 1. Vertices with bitwise-equal positions are welded (split vertices at seams).
+//! 2. Groups grow from the largest ungrouped triangle across *manifold* edges (exactly
+//!    two triangles, traversed in opposite directions, so the orientation agrees): a
+//!    neighbour joins when all three of its vertices lie within
+//!    `COPLANAR_REL × (mesh bounding diagonal)` of the seed's plane and its normal
+//!    faces the same way. Non-manifold edges are never crossed.
+//! 3. A group's boundary is its directed edges that no opposite edge cancels. Boundary
+//!    edges with a boundary vertex on them (T-junctions, within the same tolerance)
+//!    are split there and cancelled again. Loops are traced keeping the interior on
+//!    the left (at a vertex where the boundary touches itself, the outgoing edge with
+//!    the smallest clockwise turn from the way back).
+//! 4. In the group's plane (normal: area-weighted, axis `u`: the outer loop's longest
+//!    edge), vertices where a loop runs straight within `COPLANAR_REL × (group
+//!    diagonal)` are removed, and hole loops of that width (cracks) are dropped.
+//! 5. The result must be a proper region (one counter-clockwise outer loop, winding 0
+//!    or 1 everywhere) whose area equals the triangles' area within the removed
+//!    vertices' tolerance; otherwise the group's triangles are kept as triangles and
+//!    a [`WarningKind::GroupingFallback`] says why. A wrong polygon is never produced.
+//!
+//! Groups of fewer than [`MIN_GROUP_TRIANGLES`] triangles stay in the mesh (a pair is
+//! an exact parallelogram, merged as before, or a general quad, which in a curved
+//! mesh's facets would only multiply surfaces). A group that simplifies to a triangle
+//! or an exact parallelogram becomes that shape.
+
+use std::collections::BTreeMap;
+
+use glam::{DVec2, DVec3};
+
+use crate::error::{SceneError, WarningKind};
+use crate::shape::{Loop, MERGE_REL, PlaneFrame, PolygonShape, Shape, TriangleMesh};
+
+/// Coplanarity tolerance relative to the mesh's bounding-box diagonal: a triangle joins
+/// a group when its vertices are within `COPLANAR_REL × diagonal` of the group's plane.
+/// `1e-6` is about 16 `f32` ulps, the precision of glTF positions. The same factor,
+/// relative to a group's own diagonal, bounds the removal of collinear boundary
+/// vertices.
+pub const COPLANAR_REL: f64 = 1e-6;
+
+/// Smallest group that becomes its own polygon surface.
+pub const MIN_GROUP_TRIANGLES: usize = 3;
+
+/// How the loaders turn triangle meshes into surfaces.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum MeshGrouping {
+    /// Connected coplanar triangles become complex polygons (this module); the default.
+    #[default]
+    Surfaces,
+    /// One surface per mesh primitive, triangles as given (exact parallelogram pairs
+    /// merged): the behaviour before grouping, kept for comparison.
+    Triangles,
+}
+
+/// One surface made from a mesh: a name suffix (empty when the mesh made one surface)
+/// and its shape.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshPart {
+    /// Appended to the mesh's name: `""` when the mesh became one surface, else
+    /// `.face{k}` for the `k`-th polygon and `.rest` for the triangles left over.
+    pub suffix: String,
+    /// The shape: a polygon, a triangle, a parallelogram, or the left-over mesh.
+    pub shape: Shape,
+}
+
+/// The surfaces of one grouped mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Grouped {
+    /// The parts, polygons first (in the order of their largest triangle), the
+    /// left-over triangles last.
+    pub parts: Vec<MeshPart>,
+    /// Groups kept as triangles, and why.
+    pub warnings: Vec<WarningKind>,
+    /// Number of input triangles now inside polygons.
+    pub grouped_triangles: usize,
+}
+
+/// A triangle of the welded mesh.
+#[derive(Debug, Clone, Copy)]
+struct Tri {
+    /// Original vertex indices.
+    orig: [u32; 3],
+    /// Welded vertex ids.
+    v: [u32; 3],
+    /// Unit normal (zero for a triangle degenerate after welding).
+    n: DVec3,
+    /// Area.
+    area: f64,
+}
+
+/// Why a group cannot be a polygon.
+type Reason = String;
+
+/// Groups the triangles of `mesh` (already validated, degenerate triangles dropped) as
+/// the module docs describe. Textures are not carried into polygons: callers keep
+/// textured meshes as triangles.
+///
+/// # Errors
+/// Only on inconsistent input that [`TriangleMesh::build`] would have rejected
+/// ([`SceneError::Malformed`] naming `file` and `element`).
+pub fn group_mesh(mesh: &TriangleMesh, file: &str, element: &str) -> Result<Grouped, SceneError> {
+    let p = &mesh.positions;
+    let mut input: Vec<[u32; 3]> = mesh.triangles.clone();
+    for q in &mesh.parallelograms {
+        input.push([q[0], q[1], q[2]]);
+        input.push([q[0], q[2], q[3]]);
+    }
+    let n = p.len();
+    if input.iter().flatten().any(|&i| i as usize >= n) {
+        return Err(SceneError::Malformed {
+            file: file.into(),
+            element: element.into(),
+            what: "vertex index out of range".into(),
+        });
+    }
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for &i in input.iter().flatten() {
+        lo = lo.min(p[i as usize]);
+        hi = hi.max(p[i as usize]);
+    }
+    let diag = (hi - lo).length();
+    let tol = COPLANAR_REL * diag;
+    let weld = weld_exact(p);
+    let tris: Vec<Tri> = input
+        .iter()
+        .map(|t| {
+            let v = t.map(|i| weld[i as usize]);
+            let c =
+                (p[v[1] as usize] - p[v[0] as usize]).cross(p[v[2] as usize] - p[v[0] as usize]);
+            let distinct = v[0] != v[1] && v[1] != v[2] && v[0] != v[2];
+            Tri {
+                orig: *t,
+                v,
+                n: if distinct {
+                    c.normalize_or_zero()
+                } else {
+                    DVec3::ZERO
+                },
+                area: 0.5 * c.length(),
+            }
+        })
+        .collect();
+    let groups = grow_groups(p, &tris, tol);
+    let mut parts = Vec::new();
+    let mut warnings = Vec::new();
+    let mut rest: Vec<[u32; 3]> = Vec::new();
+    let mut grouped_triangles = 0;
+    for g in &groups {
+        if g.len() < MIN_GROUP_TRIANGLES {
+            rest.extend(g.iter().map(|&t| tris[t].orig));
+            continue;
+        }
+        match polygon_of(p, &tris, g, tol) {
+            Ok(shape) => {
+                grouped_triangles += g.len();
+                parts.push(shape);
+            }
+            Err(reason) => {
+                warnings.push(WarningKind::GroupingFallback {
+                    triangles: g.len(),
+                    reason,
+                });
+                rest.extend(g.iter().map(|&t| tris[t].orig));
+            }
+        }
+    }
+    // Triangles degenerate after welding belong to no group: keep them as they are.
+    let mut in_group = vec![false; tris.len()];
+    for &t in groups.iter().flatten() {
+        in_group[t] = true;
+    }
+    rest.extend(
+        tris.iter()
+            .zip(&in_group)
+            .filter(|(_, g)| !**g)
+            .map(|(t, _)| t.orig),
+    );
+    let single = parts.len() + usize::from(!rest.is_empty()) == 1;
+    let mut out: Vec<MeshPart> = parts
+        .into_iter()
+        .enumerate()
+        .map(|(k, shape)| MeshPart {
+            suffix: if single {
+                String::new()
+            } else {
+                format!(".face{k}")
+            },
+            shape,
+        })
+        .collect();
+    if !rest.is_empty() {
+        rest.sort_unstable();
+        let built = TriangleMesh::build(p.clone(), mesh.uv_sets.clone(), &rest, file, element)?;
+        out.push(MeshPart {
+            suffix: if single {
+                String::new()
+            } else {
+                ".rest".into()
+            },
+            shape: Shape::Mesh(built.mesh),
+        });
+    }
+    Ok(Grouped {
+        parts: out,
+        warnings,
+        grouped_triangles,
+    })
+}
+
+/// Welded id of every vertex: the smallest index with a bitwise-equal position.
+fn weld_exact(p: &[DVec3]) -> Vec<u32> {
+    let key = |q: DVec3| q.to_array().map(|c| (c + 0.0).to_bits());
+    let mut order: Vec<u32> = (0..p.len() as u32).collect();
+    order.sort_unstable_by_key(|&i| (key(p[i as usize]), i));
+    let mut ids = vec![0u32; p.len()];
+    let mut g = 0;
+    while g < order.len() {
+        let first = order[g];
+        let k = key(p[first as usize]);
+        let mut h = g;
+        while h < order.len() && key(p[order[h] as usize]) == k {
+            ids[order[h] as usize] = first;
+            h += 1;
+        }
+        g = h;
+    }
+    ids
+}
+
+/// Sorted undirected edges `(min, max) → (triangle, forward)` of the welded triangles.
+struct EdgeMap {
+    edges: Vec<(u64, u32, bool)>,
+}
+
+impl EdgeMap {
+    fn new(tris: &[Tri]) -> Self {
+        let mut edges = Vec::with_capacity(3 * tris.len());
+        for (t, tri) in tris.iter().enumerate() {
+            if tri.n == DVec3::ZERO {
+                continue;
+            }
+            for e in 0..3 {
+                let (a, b) = (tri.v[e], tri.v[(e + 1) % 3]);
+                edges.push((Self::key(a, b), t as u32, a < b));
+            }
+        }
+        edges.sort_unstable();
+        Self { edges }
+    }
+
+    fn key(a: u32, b: u32) -> u64 {
+        let (x, y) = if a < b { (a, b) } else { (b, a) };
+        (u64::from(x) << 32) | u64::from(y)
+    }
+
+    /// The other triangle of a manifold, consistently oriented edge `(a, b)` of `t`.
+    fn neighbour(&self, t: usize, a: u32, b: u32) -> Option<usize> {
+        let k = Self::key(a, b);
+        let lo = self.edges.partition_point(|e| e.0 < k);
+        let hi = self.edges.partition_point(|e| e.0 <= k);
+        let owners = &self.edges[lo..hi];
+        if owners.len() != 2 || owners[0].2 == owners[1].2 {
+            return None;
+        }
+        owners.iter().map(|e| e.1 as usize).find(|&u| u != t)
+    }
+}
+
+/// Region growing (see the module docs); every triangle that is not degenerate after
+/// welding ends in exactly one group.
+fn grow_groups(p: &[DVec3], tris: &[Tri], tol: f64) -> Vec<Vec<usize>> {
+    let edges = EdgeMap::new(tris);
+    let mut order: Vec<usize> = (0..tris.len())
+        .filter(|&t| tris[t].n != DVec3::ZERO)
+        .collect();
+    order.sort_by(|&a, &b| tris[b].area.total_cmp(&tris[a].area).then(a.cmp(&b)));
+    let mut assigned = vec![false; tris.len()];
+    let mut groups = Vec::new();
+    for seed in order {
+        if assigned[seed] {
+            continue;
+        }
+        assigned[seed] = true;
+        let n = tris[seed].n;
+        let o = p[tris[seed].v[0] as usize];
+        let on_plane = |t: &Tri| {
+            t.n.dot(n) > 0.0 && t.v.iter().all(|&i| n.dot(p[i as usize] - o).abs() <= tol)
+        };
+        let mut group = vec![seed];
+        let mut k = 0;
+        while k < group.len() {
+            let t = group[k];
+            k += 1;
+            for e in 0..3 {
+                let (a, b) = (tris[t].v[e], tris[t].v[(e + 1) % 3]);
+                if let Some(u) = edges.neighbour(t, a, b)
+                    && !assigned[u]
+                    && on_plane(&tris[u])
+                {
+                    assigned[u] = true;
+                    group.push(u);
+                }
+            }
+        }
+        group.sort_unstable();
+        groups.push(group);
+    }
+    groups
+}
+
+/// The boundary of a set of triangles: directed edges with net multiplicity ±1.
+fn boundary_edges(edges: impl Iterator<Item = (u32, u32)>) -> Result<Vec<(u32, u32)>, Reason> {
+    let mut net: BTreeMap<(u32, u32), i32> = BTreeMap::new();
+    for (a, b) in edges {
+        if a < b {
+            *net.entry((a, b)).or_default() += 1;
+        } else {
+            *net.entry((b, a)).or_default() -= 1;
+        }
+    }
+    let mut out = Vec::new();
+    for ((a, b), c) in net {
+        match c {
+            0 => {}
+            1 => out.push((a, b)),
+            -1 => out.push((b, a)),
+            _ => {
+                return Err(format!(
+                    "an edge is used {} times in the same direction (overlapping triangles)",
+                    c.abs()
+                ));
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Splits every boundary edge at the boundary vertices lying on it (T-junctions) and
+/// cancels the pieces again; repeats until nothing splits (at most 8 passes).
+fn split_t_junctions(
+    p: &[DVec3],
+    mut edges: Vec<(u32, u32)>,
+    tol: f64,
+) -> Result<Vec<(u32, u32)>, Reason> {
+    for _ in 0..8 {
+        let mut verts: Vec<u32> = edges.iter().flat_map(|&(a, b)| [a, b]).collect();
+        verts
+            .sort_unstable_by(|&a, &b| p[a as usize].x.total_cmp(&p[b as usize].x).then(a.cmp(&b)));
+        verts.dedup();
+        let xs: Vec<f64> = verts.iter().map(|&v| p[v as usize].x).collect();
+        let mut split = false;
+        let mut out = Vec::with_capacity(edges.len());
+        for &(a, b) in &edges {
+            let (pa, pb) = (p[a as usize], p[b as usize]);
+            let d = pb - pa;
+            let len2 = d.length_squared();
+            let (x0, x1) = (pa.x.min(pb.x) - tol, pa.x.max(pb.x) + tol);
+            let i0 = xs.partition_point(|&x| x < x0);
+            let i1 = xs.partition_point(|&x| x <= x1);
+            let mut on: Vec<(f64, u32)> = Vec::new();
+            for &v in &verts[i0..i1] {
+                if v == a || v == b {
+                    continue;
+                }
+                let q = p[v as usize] - pa;
+                let s = q.dot(d) / len2;
+                if s > 0.0 && s < 1.0 && (q - s * d).length() <= tol {
+                    on.push((s, v));
+                }
+            }
+            if on.is_empty() {
+                out.push((a, b));
+                continue;
+            }
+            split = true;
+            on.sort_by(|x, y| x.0.total_cmp(&y.0));
+            let mut prev = a;
+            for (_, v) in on {
+                out.push((prev, v));
+                prev = v;
+            }
+            out.push((prev, b));
+        }
+        if !split {
+            return Ok(edges);
+        }
+        edges = boundary_edges(out.into_iter())?;
+    }
+    Err("T-junctions did not resolve".into())
+}
+
+/// Traces closed loops through directed boundary edges, interior on the left; at a
+/// vertex with several outgoing edges, the one with the smallest clockwise turn from
+/// the way back (angles measured in the plane with normal `n`).
+fn trace_loops(p: &[DVec3], edges: &[(u32, u32)], n: DVec3) -> Result<Vec<Vec<u32>>, Reason> {
+    let mut out_of: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
+    let mut in_deg: BTreeMap<u32, usize> = BTreeMap::new();
+    for (k, &(a, b)) in edges.iter().enumerate() {
+        out_of.entry(a).or_default().push(k);
+        *in_deg.entry(b).or_default() += 1;
+    }
+    for (v, outs) in &out_of {
+        if in_deg.get(v).copied().unwrap_or(0) != outs.len() {
+            return Err("the boundary is open (a T-junction or crack that did not close)".into());
+        }
+    }
+    if in_deg.keys().any(|v| !out_of.contains_key(v)) {
+        return Err("the boundary is open (a T-junction or crack that did not close)".into());
+    }
+    let mut used = vec![false; edges.len()];
+    let mut loops = Vec::new();
+    for start in 0..edges.len() {
+        if used[start] {
+            continue;
+        }
+        let mut lp = Vec::new();
+        let mut e = start;
+        loop {
+            used[e] = true;
+            let (a, b) = edges[e];
+            lp.push(a);
+            let back = p[a as usize] - p[b as usize];
+            let candidates = &out_of[&b];
+            let next = candidates
+                .iter()
+                .copied()
+                .filter(|&k| !used[k] || k == start)
+                .min_by(|&x, &y| {
+                    let turn = |k: usize| {
+                        let d = p[edges[k].1 as usize] - p[b as usize];
+                        // Clockwise angle from `back` to `d` about `n`, in (0, 2π].
+                        let ccw = n.dot(back.cross(d)).atan2(back.dot(d));
+                        let cw = (-ccw).rem_euclid(std::f64::consts::TAU);
+                        if cw == 0.0 { std::f64::consts::TAU } else { cw }
+                    };
+                    turn(x).total_cmp(&turn(y)).then(x.cmp(&y))
+                });
+            match next {
+                Some(k) if k == start => break,
+                Some(k) => e = k,
+                None => return Err("the boundary does not close".into()),
+            }
+            if lp.len() > edges.len() {
+                return Err("the boundary does not close".into());
+            }
+        }
+        loops.push(lp);
+    }
+    Ok(loops)
+}
+
+/// Signed area of a closed 2D polyline.
+fn signed_area(pts: &[DVec2]) -> f64 {
+    let n = pts.len();
+    0.5 * (0..n)
+        .map(|i| pts[i].perp_dot(pts[(i + 1) % n]))
+        .sum::<f64>()
+}
+
+/// Removes the vertices where the loop runs straight: every removed vertex lies within
+/// `tol` of the chord that replaces it, between its ends. Starts at the vertex farthest
+/// from the loop's mean (a convex corner, never removed).
+fn simplify(pts: &[DVec2], tol: f64) -> Vec<DVec2> {
+    let n = pts.len();
+    let mean = pts.iter().copied().sum::<DVec2>() / n as f64;
+    let start = (0..n)
+        .max_by(|&a, &b| {
+            (pts[a] - mean)
+                .length_squared()
+                .total_cmp(&(pts[b] - mean).length_squared())
+                .then(b.cmp(&a))
+        })
+        .unwrap_or(0);
+    let near = |q: DVec2, a: DVec2, c: DVec2| {
+        let d = c - a;
+        let len2 = d.length_squared();
+        let s = (q - a).dot(d);
+        len2 > 0.0 && s > 0.0 && s < len2 && (q - a).perp_dot(d).abs() <= tol * len2.sqrt()
+    };
+    let mut kept = vec![pts[start]];
+    // Vertices after the last kept one, all within `tol` of the chord to the newest.
+    let mut run: Vec<DVec2> = Vec::new();
+    for k in 1..=n {
+        let c = pts[(start + k) % n];
+        if let Some(&last) = run.last() {
+            let anchor = kept[kept.len() - 1];
+            if !run.iter().all(|&q| near(q, anchor, c)) {
+                kept.push(last);
+                run.clear();
+            }
+        }
+        run.push(c);
+    }
+    kept
+}
+
+/// The polygon (or triangle, or parallelogram) tiled by group `g`, or why not.
+fn polygon_of(p: &[DVec3], tris: &[Tri], g: &[usize], tol: f64) -> Result<Shape, Reason> {
+    // Plane: area-weighted normal and centroid.
+    let mut nsum = DVec3::ZERO;
+    let mut csum = DVec3::ZERO;
+    let mut area3 = 0.0;
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for &t in g {
+        let v = tris[t].v.map(|i| p[i as usize]);
+        nsum += (v[1] - v[0]).cross(v[2] - v[0]);
+        csum += tris[t].area * (v[0] + v[1] + v[2]) / 3.0;
+        area3 += tris[t].area;
+        for q in v {
+            lo = lo.min(q);
+            hi = hi.max(q);
+        }
+    }
+    let normal = nsum
+        .try_normalize()
+        .ok_or("the triangles' normals cancel")?;
+    let centre = csum / area3;
+    for &t in g {
+        for &i in &tris[t].v {
+            if normal.dot(p[i as usize] - centre).abs() > 2.0 * tol {
+                return Err("the triangles are not coplanar within the tolerance".into());
+            }
+        }
+    }
+    let edges = boundary_edges(g.iter().flat_map(|&t| {
+        let v = tris[t].v;
+        [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])]
+    }))?;
+    let edges = split_t_junctions(p, edges, tol)?;
+    let loops = trace_loops(p, &edges, normal)?;
+    // Frame: u along the longest boundary edge (of the loop with the largest extent).
+    let (mut best, mut u) = (0.0, DVec3::ZERO);
+    for &(a, b) in &edges {
+        let d = p[b as usize] - p[a as usize];
+        let d = d - normal * normal.dot(d);
+        if d.length_squared() > best {
+            best = d.length_squared();
+            u = d;
+        }
+    }
+    let u = u.try_normalize().ok_or("the boundary has no extent")?;
+    let v = normal.cross(u);
+    let origin = centre;
+    let frame = PlaneFrame { origin, u, v };
+    let to2 = |q: DVec3| DVec2::new((q - origin).dot(u), (q - origin).dot(v));
+    let gdiag = (hi - lo).length();
+    let simplify_tol = COPLANAR_REL * gdiag;
+    let mut outer: Option<Vec<DVec2>> = None;
+    let mut holes: Vec<Vec<DVec2>> = Vec::new();
+    let mut raw_area = 0.0;
+    let mut perimeter = 0.0;
+    for lp in &loops {
+        let pts: Vec<DVec2> = lp.iter().map(|&i| to2(p[i as usize])).collect();
+        let a = signed_area(&pts);
+        raw_area += a;
+        let per: f64 = (0..pts.len())
+            .map(|k| (pts[(k + 1) % pts.len()] - pts[k]).length())
+            .sum();
+        perimeter += per;
+        if a > 0.0 {
+            if outer.is_some() {
+                return Err("the triangles have several outer boundaries (they overlap)".into());
+            }
+            outer = Some(simplify(&pts, simplify_tol));
+        } else if -a > simplify_tol * per {
+            holes.push(simplify(&pts, simplify_tol));
+        }
+        // A hole thinner than the tolerance is a crack between triangles: dropped.
+    }
+    let outer = outer.ok_or("the boundary has no counter-clockwise outer loop")?;
+    // The triangles' (3D) area must be what the boundary encloses.
+    if (raw_area - area3).abs() > 4.0 * tol * perimeter + 1e-9 * area3 {
+        return Err(format!(
+            "the boundary encloses {raw_area} but the triangles cover {area3} (overlapping or folded triangles)"
+        ));
+    }
+    let poly = PolygonShape {
+        frame,
+        outer: Loop::polygon(&outer),
+        holes: holes.iter().map(|h| Loop::polygon(h)).collect(),
+    };
+    check_region(&poly).map_err(|e| format!("the boundary is not a simple region: {e}"))?;
+    let simple_area = poly.area();
+    if (simple_area - area3).abs() > 4.0 * simplify_tol * perimeter + 1e-9 * area3 {
+        return Err(format!(
+            "straightening the boundary changed the area from {area3} to {simple_area}"
+        ));
+    }
+    if holes.is_empty() && outer.len() == 3 {
+        return Ok(Shape::Triangle([0, 1, 2].map(|k| frame.point(outer[k]))));
+    }
+    if holes.is_empty() && outer.len() == 4 {
+        let [a, b, c, d] = [0, 1, 2, 3].map(|k| frame.point(outer[k]));
+        if (a + c - b - d).length() <= MERGE_REL * (c - a).length() {
+            return Ok(Shape::parallelogram(a, b - a, d - a));
+        }
+    }
+    Ok(Shape::Polygon(poly))
+}
+
+/// Checks that a polygon's loops bound a proper region, as a reason string.
+fn check_region(poly: &PolygonShape) -> Result<(), Reason> {
+    poly.check_region(crate::error::MEMORY_FILE, "")
+        .map_err(|e| match e {
+            SceneError::Malformed { what, .. } | SceneError::Degenerate { what, .. } => what,
+            other => other.to_string(),
+        })
+}

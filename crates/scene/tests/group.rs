@@ -1,0 +1,375 @@
+//! Mesh grouping: triangles written by an exporter come back as the surfaces they tile
+//! (a ring-tessellated disk as one 128-gon, the Cornell floor with its two holes),
+//! with areas against closed forms, at scales 1e-4..1e4, through real GLB files; and
+//! T-junctions, split vertices, non-manifold edges and overlaps never give a wrong
+//! polygon.
+
+use std::f64::consts::TAU;
+
+use glam::{DMat4, DVec3};
+use proptest::prelude::*;
+use wavelux_scene::{
+    GltfOptions, MeshGrouping, Scene, Shape, Sidedness, Surface, TessellateOptions, TriangleMesh,
+    WarningKind, fixtures, group_mesh, load_gltf_slice, tessellated, to_glb,
+};
+
+fn mesh(positions: Vec<DVec3>, tris: &[[u32; 3]]) -> TriangleMesh {
+    TriangleMesh::build(positions, Vec::new(), tris, "t", "m")
+        .unwrap()
+        .mesh
+}
+
+fn roundtrip(scene: &Scene, grouping: MeshGrouping) -> Scene {
+    let glb = to_glb(scene, "t.glb").unwrap();
+    load_gltf_slice(
+        &glb,
+        "t.glb",
+        None,
+        &GltfOptions {
+            grouping,
+            ..GltfOptions::default()
+        },
+    )
+    .unwrap()
+}
+
+fn polygon(s: &Shape) -> &wavelux_scene::PolygonShape {
+    match s {
+        Shape::Polygon(p) => p,
+        other => panic!("expected a polygon, got {other:?}"),
+    }
+}
+
+/// Area of a regular n-gon of circumradius r.
+fn ngon_area(n: u32, r: f64) -> f64 {
+    0.5 * f64::from(n) * r * r * (TAU / f64::from(n)).sin()
+}
+
+#[test]
+fn ring_disks_become_one_polygon_each() {
+    let scene = fixtures::coaxial_disks(1.0, 1.0, 128, 8);
+    let s = roundtrip(&scene, MeshGrouping::Surfaces);
+    assert_eq!(s.surfaces.len(), 2);
+    for (surf, normal) in s.surfaces.iter().zip([DVec3::Z, -DVec3::Z]) {
+        let p = polygon(&surf.shape);
+        assert_eq!(p.outer.edges.len(), 128, "{}", surf.name);
+        assert!(p.holes.is_empty());
+        assert!((p.frame.normal() - normal).length() < 1e-6);
+        // f32 positions: area within 1e-6 of the 128-gon's.
+        let exact = ngon_area(128, 1.0);
+        assert!((surf.shape.area() - exact).abs() < 1e-6 * exact);
+    }
+    // The 128 degenerate centre triangles of each grid are dropped with a warning.
+    assert_eq!(
+        s.warnings.iter().map(|w| &w.kind).collect::<Vec<_>>(),
+        [&WarningKind::DegenerateTrianglesDropped { count: 128 }; 2]
+    );
+    // The old behaviour stays available for comparison.
+    let t = roundtrip(&scene, MeshGrouping::Triangles);
+    assert_eq!(t.surfaces.len(), 2);
+    for surf in &t.surfaces {
+        let Shape::Mesh(m) = &surf.shape else {
+            panic!("expected triangles")
+        };
+        assert_eq!(m.triangle_count(), 1920);
+        assert!((surf.shape.area() - s.surfaces[0].shape.area()).abs() < 1e-6);
+    }
+}
+
+#[test]
+fn cornell_faces_group_into_floor_and_ceiling_with_holes() {
+    let faces = fixtures::cornell_faces();
+    let tess = tessellated(&faces, &TessellateOptions::default()).unwrap();
+    let s = roundtrip(&tess, MeshGrouping::Surfaces);
+    let names: Vec<&str> = s.surfaces.iter().map(|x| x.name.as_str()).collect();
+    let want: Vec<&str> = faces.surfaces.iter().map(|x| x.name.as_str()).collect();
+    assert_eq!(names, want);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    for (name, holes) in [("floor", 2), ("ceiling", 1)] {
+        let got = s.surface(name).unwrap();
+        let p = polygon(&got.shape);
+        assert_eq!(p.holes.len(), holes, "{name}");
+        assert_eq!(p.outer.edges.len(), 4, "{name}");
+        assert!(p.holes.iter().all(|h| h.edges.len() == 4), "{name}");
+        let exact = faces.surface(name).unwrap().shape.area();
+        assert!(
+            (got.shape.area() - exact).abs() < 1e-6 * exact,
+            "{name}: {} vs {exact}",
+            got.shape.area()
+        );
+        // Orientation: the front of both faces the inside of the box.
+        let n = p.frame.normal();
+        let want = if name == "floor" { DVec3::Y } else { -DVec3::Y };
+        assert!((n - want).length() < 1e-6, "{name}: {n}");
+    }
+    assert!((s.total_area() - faces.total_area()).abs() < 1e-6 * faces.total_area());
+}
+
+#[test]
+fn curved_meshes_stay_triangles() {
+    let scene = fixtures::closed_sphere(1.0, 72, 36, 0.5, 1.0).unwrap();
+    let s = roundtrip(&scene, MeshGrouping::Surfaces);
+    assert_eq!(s.surfaces.len(), 1);
+    let Shape::Mesh(m) = &s.surfaces[0].shape else {
+        panic!("expected the sphere to stay a mesh")
+    };
+    assert_eq!(m.triangle_count(), 5040);
+    assert!(s.warnings.is_empty());
+}
+
+/// A square `[0,2]²` as a fan around its centre, one fan triangle split at the
+/// midpoint of an edge it shares with its neighbour (a T-junction).
+fn t_junction_square(scale: f64, offset: DVec3) -> TriangleMesh {
+    let v = |x: f64, y: f64| offset + scale * DVec3::new(x, y, 0.0);
+    let (a, b, c, d, o, m) = (0, 1, 2, 3, 4, 5);
+    mesh(
+        vec![
+            v(0.0, 0.0),
+            v(2.0, 0.0),
+            v(2.0, 2.0),
+            v(0.0, 2.0),
+            v(1.0, 1.0),
+            v(1.5, 0.5),
+        ],
+        &[[a, b, o], [b, c, m], [m, c, o], [c, d, o], [d, a, o]],
+    )
+}
+
+#[test]
+fn t_junctions_are_closed() {
+    let g = group_mesh(&t_junction_square(1.0, DVec3::ZERO), "t", "m").unwrap();
+    assert!(g.warnings.is_empty(), "{:?}", g.warnings);
+    assert_eq!(g.parts.len(), 1);
+    assert_eq!(g.grouped_triangles, 5);
+    match &g.parts[0].shape {
+        Shape::Parallelogram { edge_u, edge_v, .. } => {
+            assert!((edge_u.cross(*edge_v).length() - 4.0).abs() < 1e-12);
+            assert!(edge_u.cross(*edge_v).z > 0.0);
+        }
+        other => panic!("expected the square, got {other:?}"),
+    }
+}
+
+#[test]
+fn split_vertices_and_grids_collapse_to_the_rectangle() {
+    // A 4 × 3 grid of quads with every quad's vertices duplicated (as at UV seams).
+    let mut positions = Vec::new();
+    let mut tris = Vec::new();
+    for j in 0..3 {
+        for i in 0..4 {
+            let base = positions.len() as u32;
+            for (x, y) in [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)] {
+                positions.push(DVec3::new(f64::from(x) * 0.5, f64::from(y) * 0.25, 1.0));
+            }
+            tris.push([base, base + 1, base + 2]);
+            tris.push([base, base + 2, base + 3]);
+        }
+    }
+    let g = group_mesh(&mesh(positions, &tris), "t", "m").unwrap();
+    assert_eq!(g.parts.len(), 1);
+    match &g.parts[0].shape {
+        Shape::Parallelogram { edge_u, edge_v, .. } => {
+            assert!((edge_u.cross(*edge_v) - DVec3::new(0.0, 0.0, 1.5)).length() < 1e-12)
+        }
+        other => panic!("expected one rectangle, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_fan_winding_past_a_full_turn_falls_back_to_triangles() {
+    // Eight 60° fan triangles around the origin: 480°, part of the plane covered
+    // twice. Connected, coplanar and consistently oriented, but no polygon.
+    let mut positions = vec![DVec3::ZERO];
+    for k in 0..=8 {
+        let a = f64::from(k) * TAU / 6.0;
+        let r = 1.0 + 0.1 * f64::from(k);
+        positions.push(r * DVec3::new(a.cos(), a.sin(), 0.0));
+    }
+    let tris: Vec<[u32; 3]> = (1..=8).map(|k| [0, k, k + 1]).collect();
+    let m = mesh(positions, &tris);
+    let g = group_mesh(&m, "t", "m").unwrap();
+    assert_eq!(g.grouped_triangles, 0);
+    assert!(
+        matches!(
+            &g.warnings[..],
+            [WarningKind::GroupingFallback { triangles: 8, .. }]
+        ),
+        "{:?}",
+        g.warnings
+    );
+    let Shape::Mesh(rest) = &g.parts[0].shape else {
+        panic!("expected the triangles back")
+    };
+    assert_eq!(rest.triangle_count(), 8);
+    assert!((g.parts[0].shape.area() - Shape::Mesh(m).area()).abs() < 1e-12);
+}
+
+#[test]
+fn non_manifold_edges_are_not_crossed() {
+    // A square fan plus a duplicate of one fan triangle: the duplicate's edges have
+    // three owners or repeat a direction, so the three clean triangles form the square
+    // minus the duplicated one, and both copies stay triangles. Area is kept.
+    let v = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+    let positions = vec![
+        v(0.0, 0.0),
+        v(2.0, 0.0),
+        v(2.0, 2.0),
+        v(0.0, 2.0),
+        v(1.0, 1.0),
+    ];
+    let tris = [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4], [0, 1, 4]];
+    let m = mesh(positions, &tris);
+    let g = group_mesh(&m, "t", "m").unwrap();
+    assert_eq!(g.grouped_triangles, 3);
+    let total: f64 = g.parts.iter().map(|p| p.shape.area()).sum();
+    assert!((total - 5.0).abs() < 1e-12, "{total}");
+    let names: Vec<&str> = g.parts.iter().map(|p| p.suffix.as_str()).collect();
+    assert_eq!(names, [".face0", ".rest"]);
+}
+
+#[test]
+fn folded_and_non_coplanar_neighbours_stay_apart() {
+    // Two squares (fans of 4) meeting at a 90° edge: two polygons, no warning.
+    let mut positions = Vec::new();
+    let mut tris = Vec::new();
+    for (o, u, w) in [
+        (DVec3::ZERO, DVec3::X, DVec3::Y),
+        (DVec3::ZERO, DVec3::Z, DVec3::X),
+    ] {
+        let base = positions.len() as u32;
+        for (x, y) in [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0), (0.5, 0.5)] {
+            positions.push(o + x * u + y * w);
+        }
+        for k in 0..4 {
+            tris.push([base + k, base + (k + 1) % 4, base + 4]);
+        }
+    }
+    let g = group_mesh(&mesh(positions, &tris), "t", "m").unwrap();
+    assert!(g.warnings.is_empty());
+    assert_eq!(g.grouped_triangles, 8);
+    assert_eq!(g.parts.len(), 2);
+    for p in &g.parts {
+        assert!(matches!(p.shape, Shape::Parallelogram { .. }));
+        assert!((p.shape.area() - 1.0).abs() < 1e-12);
+    }
+}
+
+/// The ring disk scaled, rotated and moved: still one 128-gon of the scaled area.
+fn check_disk_at(scale: f64, angle: f64, offset: DVec3) {
+    let (p, t) = fixtures::ring_disk(DVec3::ZERO, DVec3::X, DVec3::Y, 1.0, 128, 8);
+    let m = DMat4::from_translation(offset)
+        * DMat4::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), angle)
+        * DMat4::from_scale(DVec3::splat(scale));
+    let p: Vec<DVec3> = p.into_iter().map(|x| m.transform_point3(x)).collect();
+    let built = TriangleMesh::build(p, Vec::new(), &t, "t", "m").unwrap();
+    assert_eq!(built.dropped, 128);
+    let g = group_mesh(&built.mesh, "t", "m").unwrap();
+    assert!(g.warnings.is_empty(), "scale {scale}: {:?}", g.warnings);
+    assert_eq!(g.parts.len(), 1, "scale {scale}");
+    let poly = polygon(&g.parts[0].shape);
+    assert_eq!(poly.outer.edges.len(), 128, "scale {scale}");
+    let exact = ngon_area(128, scale);
+    let got = g.parts[0].shape.area();
+    assert!(
+        (got - exact).abs() < 1e-9 * exact,
+        "scale {scale}: {got} vs {exact}"
+    );
+}
+
+#[test]
+fn grouping_is_scale_invariant_from_1e_minus_4_to_1e4() {
+    for e in -4..=4 {
+        let s = 10f64.powi(e);
+        check_disk_at(s, 0.7, DVec3::new(3.0, -1.0, 2.0) * s);
+        let g = group_mesh(&t_junction_square(s, DVec3::splat(5.0 * s)), "t", "m").unwrap();
+        assert!(g.warnings.is_empty(), "scale {s}: {:?}", g.warnings);
+        assert_eq!(g.grouped_triangles, 5, "scale {s}");
+    }
+}
+
+/// A mesh surface in a scene (for the loader round trips).
+fn scene_with(shape: Shape) -> Scene {
+    let mut s = Scene::new("t");
+    let m = s.add_material(wavelux_scene::Material::lambertian(
+        "m",
+        wavelux_scene::Rgb::grey(0.5),
+        wavelux_scene::Rgb::BLACK,
+    ));
+    s.add_surface(Surface {
+        name: "box".into(),
+        shape,
+        material: m,
+        sides: Sidedness::OneSided,
+    });
+    s
+}
+
+#[test]
+fn one_mesh_with_several_faces_names_every_part() {
+    // Two fan squares meeting at 90° in one primitive, plus a lone triangle.
+    let mut positions = Vec::new();
+    let mut tris = Vec::new();
+    for (o, u, w) in [
+        (DVec3::ZERO, DVec3::X, DVec3::Y),
+        (DVec3::ZERO, DVec3::Z, DVec3::X),
+    ] {
+        let base = positions.len() as u32;
+        for (x, y) in [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0), (0.5, 0.5)] {
+            positions.push(o + x * u + y * w);
+        }
+        for k in 0..4 {
+            tris.push([base + k, base + (k + 1) % 4, base + 4]);
+        }
+    }
+    let base = positions.len() as u32;
+    positions.extend([
+        DVec3::new(5.0, 0.0, 0.0),
+        DVec3::new(6.0, 0.0, 0.0),
+        DVec3::new(5.0, 0.0, 1.0),
+    ]);
+    tris.push([base, base + 2, base + 1]);
+    let s = roundtrip(
+        &scene_with(Shape::Mesh(mesh(positions, &tris))),
+        MeshGrouping::Surfaces,
+    );
+    let names: Vec<&str> = s.surfaces.iter().map(|x| x.name.as_str()).collect();
+    assert_eq!(names, ["box.face0", "box.face1", "box.rest"]);
+    assert!((s.total_area() - 2.5).abs() < 1e-6);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// A random star-shaped polygon, fan-triangulated from its centre and moved
+    /// anywhere at any scale, comes back as itself: same area, same vertex count
+    /// (no vertex of a random polygon is straight within 1e-6).
+    #[test]
+    fn fans_of_random_star_polygons_round_trip(
+        radii in proptest::collection::vec(0.3f64..1.0, 5..40),
+        scale_exp in -4i32..=4,
+        angle in 0.0f64..6.0,
+    ) {
+        let n = radii.len() as u32;
+        let scale = 10f64.powi(scale_exp);
+        let rot = DMat4::from_axis_angle(DVec3::new(0.3, -1.0, 0.5).normalize(), angle)
+            * DMat4::from_scale(DVec3::splat(scale));
+        let mut positions = vec![rot.transform_point3(DVec3::ZERO)];
+        let mut area = 0.0;
+        for (k, r) in radii.iter().enumerate() {
+            let a = TAU * k as f64 / f64::from(n);
+            positions.push(rot.transform_point3(*r * DVec3::new(a.cos(), a.sin(), 0.0)));
+            let r2 = radii[(k + 1) % radii.len()];
+            area += 0.5 * r * r2 * (TAU / f64::from(n)).sin() * scale * scale;
+        }
+        let tris: Vec<[u32; 3]> = (1..=n).map(|k| [0, k, k % n + 1]).collect();
+        let g = group_mesh(&mesh(positions, &tris), "t", "m").unwrap();
+        prop_assert!(g.warnings.is_empty(), "{:?}", g.warnings);
+        prop_assert_eq!(g.parts.len(), 1);
+        let got = g.parts[0].shape.area();
+        prop_assert!((got - area).abs() <= 1e-9 * area, "{} vs {}", got, area);
+        if let Shape::Polygon(p) = &g.parts[0].shape {
+            prop_assert!(p.outer.edges.len() <= n as usize);
+            prop_assert!(p.outer.edges.len() >= 3);
+        }
+    }
+}
