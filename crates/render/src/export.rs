@@ -15,17 +15,25 @@
 //!   after the surface, with the `KHR_materials_unlit` material so viewers show the
 //!   baked colours as they are (base colour 0.99, not 1: the file then loads back
 //!   through wavelux's own glTF loader, which requires `ρ < 1`).
-//! - Lightmaps: one linear f32 EXR per patch, `res × res` pixels over the patch's
-//!   unit-square support (`s` right, `t` down: row 0 is `t ≈ 0`), pixel = radiosity
-//!   (W/m²) at the pixel centre.
+//!   On a masked (virtual) support only the real part is written: leaves outside the
+//!   mask are skipped, leaves across its boundary are cut along it (the mask's trim
+//!   region, arcs flattened to `1e-4` of its size, clipped cell by cell).
+//! - Lightmaps: one linear f32 RGBA EXR per patch, `res × res` pixels over the patch's
+//!   unit-square support (`s` right, `t` down: row 0 is `t ≈ 0`), RGB = radiosity
+//!   (W/m²) at the pixel centre (at its nearest real point where the centre is
+//!   virtual), A = the pixel's real fraction.
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+use glam::{DVec2, DVec3};
 use serde_json::json;
-use wavelux_solver::{Side, Solution};
-
-use wavelux_geometry::{Hit, Primitive, Ray, TessellationOptions, tessellate};
+use wavelux_geometry::tessellate::tessellate_polygon;
+use wavelux_geometry::{
+    ComplexPolygon, Hit, PlaneFrame, Primitive, Ray, TessellationOptions, tessellate,
+};
 use wavelux_scene::Scene;
+use wavelux_solver::{Coverage, Mask, Side, Solution};
 
 use crate::field::RadiosityField;
 use crate::image::{Image, write_bytes_atomic};
@@ -52,6 +60,164 @@ fn safe(name: &str) -> String {
         .collect()
 }
 
+/// The real part of a masked support as triangles in its mask plane (a CDT of the
+/// trim region, arcs flattened to `1e-4` of the region's diagonal), clipped cell by
+/// cell by [`clip_to_cell`].
+struct RealPart {
+    tris: Vec<[DVec2; 3]>,
+}
+
+impl RealPart {
+    fn new(mask: &Mask) -> Result<Self, RenderError> {
+        let geo = |e: wavelux_geometry::GeometryError| RenderError::Scene(e.to_string());
+        let frame = PlaneFrame::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y).map_err(geo)?;
+        let poly = ComplexPolygon::new(frame, mask.region().clone()).map_err(geo)?;
+        let opts = TessellationOptions {
+            chord_tolerance: 1e-4,
+            min_angle_deg: 0.0,
+            ..TessellationOptions::default()
+        };
+        let m = tessellate_polygon(&poly, &opts)
+            .map_err(|e| RenderError::Scene(format!("cannot tessellate a mask: {e}")))?;
+        let tris = m
+            .indices
+            .iter()
+            .map(|t| t.map(|i| m.positions[i as usize].truncate()))
+            .collect();
+        Ok(Self { tris })
+    }
+}
+
+/// Sutherland–Hodgman: the part of the convex polygon `poly` on the left of the
+/// directed line `a → b`.
+fn clip_half(poly: &[DVec2], a: DVec2, b: DVec2) -> Vec<DVec2> {
+    let d = b - a;
+    let side = |p: DVec2| d.perp_dot(p - a);
+    let mut out = Vec::with_capacity(poly.len() + 1);
+    for k in 0..poly.len() {
+        let (p, q) = (poly[k], poly[(k + 1) % poly.len()]);
+        let (sp, sq) = (side(p), side(q));
+        if sp >= 0.0 {
+            out.push(p);
+        }
+        if (sp >= 0.0) != (sq >= 0.0) {
+            out.push(p + (q - p) * (sp / (sp - sq)));
+        }
+    }
+    out
+}
+
+/// The real part inside the support cell `[s0,s0+h]×[t0,t0+h]`, as convex polygons
+/// in the mask plane (counter-clockwise there).
+fn clip_to_cell(mask: &Mask, real: &RealPart, s0: f64, t0: f64, h: f64) -> Vec<Vec<DVec2>> {
+    let mut w = [
+        mask.to_plane(s0, t0),
+        mask.to_plane(s0 + h, t0),
+        mask.to_plane(s0 + h, t0 + h),
+        mask.to_plane(s0, t0 + h),
+    ];
+    if (w[1] - w[0]).perp_dot(w[3] - w[0]) < 0.0 {
+        w.swap(1, 3);
+    }
+    let lo = w.iter().fold(DVec2::splat(f64::INFINITY), |a, b| a.min(*b));
+    let hi = w
+        .iter()
+        .fold(DVec2::splat(f64::NEG_INFINITY), |a, b| a.max(*b));
+    let mut out = Vec::new();
+    for t in &real.tris {
+        let tlo = t[0].min(t[1]).min(t[2]);
+        let thi = t[0].max(t[1]).max(t[2]);
+        if tlo.x > hi.x || tlo.y > hi.y || thi.x < lo.x || thi.y < lo.y {
+            continue;
+        }
+        let mut poly = t.to_vec();
+        for k in 0..4 {
+            poly = clip_half(&poly, w[k], w[(k + 1) % 4]);
+            if poly.len() < 3 {
+                break;
+            }
+        }
+        if poly.len() >= 3 {
+            out.push(poly);
+        }
+    }
+    out
+}
+
+/// One surface's baked mesh under construction.
+struct Baker<'a> {
+    solution: &'a Solution,
+    patch: usize,
+    /// The leaf region `(s0, t0, h)` whose polynomial colours the vertices.
+    leaf: (f64, f64, f64),
+    mesh: &'a mut MeshData,
+    /// Largest vertex radiosity of non-emitting patches (the colour scale).
+    scale: &'a mut f64,
+}
+
+impl Baker<'_> {
+    /// Adds a vertex at support coordinates `(s, t)`, coloured by the leaf's radiosity.
+    fn vertex(&mut self, s: f64, t: f64) -> u32 {
+        let patch = &self.solution.patches[self.patch];
+        let (s0, t0, h) = self.leaf;
+        let x = patch.support.point(s, t);
+        let b = self
+            .solution
+            .radiosity(self.patch, clamp_into(s, s0, h), clamp_into(t, t0, h));
+        if patch.emission.iter().all(|&e| e <= 0.0) {
+            *self.scale = self.scale.max(b.iter().copied().fold(0.0, f64::max));
+        }
+        let (pos, col, _) = &mut *self.mesh;
+        pos.push([x.x as f32, x.y as f32, x.z as f32]);
+        col.push(b);
+        (pos.len() - 1) as u32
+    }
+
+    /// The cell `[s0,s0+h]×[t0,t0+h]` as `sub × sub` quads.
+    fn grid(&mut self, s0: f64, t0: f64, h: f64, sub: usize) {
+        let n = sub + 1;
+        let base = self.mesh.0.len() as u32;
+        for j in 0..n {
+            for i in 0..n {
+                self.vertex(
+                    s0 + h * i as f64 / sub as f64,
+                    t0 + h * j as f64 / sub as f64,
+                );
+            }
+        }
+        for j in 0..sub as u32 {
+            for i in 0..sub as u32 {
+                let a = base + j * n as u32 + i;
+                let (b, c, d) = (a + 1, a + n as u32 + 1, a + n as u32);
+                self.mesh.2.extend_from_slice(&[a, b, c, a, c, d]);
+            }
+        }
+    }
+
+    /// A convex polygon of the mask plane, fan-triangulated, front side kept.
+    fn polygon(&mut self, mask: &Mask, poly: &[DVec2]) {
+        let st: Vec<(f64, f64)> = poly.iter().map(|p| mask.from_plane(*p)).collect();
+        let area: f64 = (0..st.len())
+            .map(|k| {
+                let (a, b) = (st[k], st[(k + 1) % st.len()]);
+                a.0 * b.1 - a.1 * b.0
+            })
+            .sum();
+        if area == 0.0 {
+            return;
+        }
+        let ids: Vec<u32> = st.iter().map(|&(s, t)| self.vertex(s, t)).collect();
+        for k in 1..ids.len() - 1 {
+            let (b, c) = if area > 0.0 {
+                (ids[k], ids[k + 1])
+            } else {
+                (ids[k + 1], ids[k])
+            };
+            self.mesh.2.extend_from_slice(&[ids[0], b, c]);
+        }
+    }
+}
+
 /// Writes `path` (`.gltf`) and its buffer (`path` with extension `.bin`): the baked
 /// tessellation described in the module docs. `names[i]` names surface `i`.
 ///
@@ -70,6 +236,7 @@ pub fn write_gltf(
     let h = &solution.system.h;
     // Per surface: positions, colours (radiosity), indices.
     let mut per: Vec<MeshData> = vec![(Vec::new(), Vec::new(), Vec::new()); names.len()];
+    let mut real_parts: HashMap<usize, RealPart> = HashMap::new();
     let mut scale: f64 = 0.0;
     for &leaf in &h.leaves {
         let key = h.keys[leaf as usize];
@@ -79,31 +246,40 @@ pub fn write_gltf(
             continue;
         }
         let reg = key.region();
-        let (pos, col, idx) = &mut per[patch.surface];
-        let n = sub + 1;
-        let base = pos.len() as u32;
-        for j in 0..n {
-            for i in 0..n {
-                let s = reg.s0 + reg.h * i as f64 / sub as f64;
-                let t = reg.t0 + reg.h * j as f64 / sub as f64;
-                let x = patch.support.point(s, t);
-                pos.push([x.x as f32, x.y as f32, x.z as f32]);
-                let b = solution.radiosity(
-                    p,
-                    clamp_into(s, reg.s0, reg.h),
-                    clamp_into(t, reg.t0, reg.h),
-                );
-                if patch.emission.iter().all(|&e| e <= 0.0) {
-                    scale = scale.max(b.iter().copied().fold(0.0, f64::max));
+        let mut baker = Baker {
+            solution,
+            patch: p,
+            leaf: (reg.s0, reg.t0, reg.h),
+            mesh: &mut per[patch.surface],
+            scale: &mut scale,
+        };
+        let Some(mask) = &patch.support.mask else {
+            baker.grid(reg.s0, reg.t0, reg.h, sub);
+            continue;
+        };
+        match mask.coverage(reg.s0, reg.t0, reg.h) {
+            Coverage::Empty => continue,
+            Coverage::Full => baker.grid(reg.s0, reg.t0, reg.h, sub),
+            Coverage::Partial => {
+                let real = match real_parts.entry(p) {
+                    std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
+                    std::collections::hash_map::Entry::Vacant(e) => e.insert(RealPart::new(mask)?),
+                };
+                let c = reg.h / sub as f64;
+                for j in 0..sub {
+                    for i in 0..sub {
+                        let (s0, t0) = (reg.s0 + c * i as f64, reg.t0 + c * j as f64);
+                        match mask.coverage(s0, t0, c) {
+                            Coverage::Empty => {}
+                            Coverage::Full => baker.grid(s0, t0, c, 1),
+                            Coverage::Partial => {
+                                for poly in clip_to_cell(mask, real, s0, t0, c) {
+                                    baker.polygon(mask, &poly);
+                                }
+                            }
+                        }
+                    }
                 }
-                col.push(b);
-            }
-        }
-        for j in 0..sub as u32 {
-            for i in 0..sub as u32 {
-                let a = base + j * n as u32 + i;
-                let (b, c, d) = (a + 1, a + n as u32 + 1, a + n as u32);
-                idx.extend_from_slice(&[a, b, c, a, c, d]);
             }
         }
     }
@@ -207,7 +383,11 @@ fn write_baked(
 
 /// Writes one `res × res` lightmap EXR per patch into `dir`, named
 /// `SURFACE.PIECE.exr` (`SURFACE.PIECE.back.exr` for back sides; names made
-/// file-system safe); returns the paths.
+/// file-system safe); returns the paths. Pixels are RGBA: `A` is the real fraction of
+/// the pixel (exact; `1` everywhere on supports without a mask), RGB the radiosity at
+/// the pixel centre, or where the centre is virtual at its nearest real point (so a
+/// filtered lookup near the boundary of a masked support never reads the virtual
+/// extension).
 ///
 /// # Errors
 /// [`RenderError::Invalid`] for `res ∉ 1..=8192`, [`RenderError::Io`] on failures.
@@ -228,6 +408,7 @@ pub fn write_lightmaps(
         message: e.to_string(),
     })?;
     let mut out = Vec::new();
+    let px = 1.0 / res as f64;
     for (p, patch) in solution.patches.iter().enumerate() {
         let name = names
             .get(patch.surface)
@@ -239,13 +420,25 @@ pub fn write_lightmaps(
         };
         let path = dir.join(format!("{name}.{}{side}.exr", patch.piece));
         let mut img = Image::new(res, res);
+        let mut alpha = vec![1.0; res * res];
         for y in 0..res {
             for x in 0..res {
-                let (s, t) = ((x as f64 + 0.5) / res as f64, (y as f64 + 0.5) / res as f64);
+                let (s, t) = ((x as f64 + 0.5) * px, (y as f64 + 0.5) * px);
+                let (s, t) = match &patch.support.mask {
+                    Some(mask) => {
+                        alpha[y * res + x] = mask.real_fraction(x as f64 * px, y as f64 * px, px);
+                        if mask.is_real(s, t) {
+                            (s, t)
+                        } else {
+                            mask.nearest_real(s, t)
+                        }
+                    }
+                    None => (s, t),
+                };
                 img.pixels[y * res + x] = solution.radiosity(p, s, t);
             }
         }
-        img.write_exr(&path)?;
+        img.write_exr_rgba(&alpha, &path)?;
         out.push(path);
     }
     Ok(out)

@@ -176,6 +176,41 @@ impl Image {
         })
     }
 
+    /// Writes a linear f32 RGBA EXR (atomically) with `alpha[y·width + x]` as A.
+    ///
+    /// # Errors
+    /// [`RenderError::Invalid`] for an empty image or an alpha of the wrong length,
+    /// [`RenderError::Io`] on failure.
+    pub fn write_exr_rgba(&self, alpha: &[f64], path: &Path) -> Result<(), RenderError> {
+        if self.width == 0 || self.height == 0 || alpha.len() != self.pixels.len() {
+            return Err(invalid("image", "empty image or alpha of the wrong size"));
+        }
+        write_atomic(path, |tmp| {
+            exr::prelude::write_rgba_file(tmp, self.width, self.height, |x, y| {
+                let p = self.get(x, y);
+                let a = alpha[y * self.width + x];
+                (p[0] as f32, p[1] as f32, p[2] as f32, a as f32)
+            })
+            .map_err(|e| io_err(tmp, e))
+        })
+    }
+
+    /// Reads the alpha channel of an EXR's first RGBA layer (`1` where it has none).
+    ///
+    /// # Errors
+    /// [`RenderError::Io`] if the file is missing or not an RGB EXR.
+    pub fn read_exr_alpha(path: &Path) -> Result<Vec<f64>, RenderError> {
+        let img = exr::prelude::read_first_rgba_layer_from_file(
+            path,
+            |res, _| (res.width(), vec![1.0; res.width() * res.height()]),
+            |(w, a): &mut (usize, Vec<f64>), pos, (_r, _g, _b, alpha): (f32, f32, f32, f32)| {
+                a[pos.y() * *w + pos.x()] = f64::from(alpha);
+            },
+        )
+        .map_err(|e| io_err(path, e))?;
+        Ok(img.layer_data.channel_data.pixels.1)
+    }
+
     /// Reads the first RGB(A) layer of an EXR file.
     ///
     /// # Errors

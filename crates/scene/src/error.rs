@@ -219,6 +219,21 @@ pub enum WarningKind {
     },
 }
 
+impl WarningKind {
+    /// A short stable tag of the kind (`degenerate-triangles-dropped`,
+    /// `reflectance-clamped`, `non-area-primitive-skipped`, `ignored`,
+    /// `grouping-fallback`), for machine-readable reports.
+    pub fn code(&self) -> &'static str {
+        match self {
+            Self::DegenerateTrianglesDropped { .. } => "degenerate-triangles-dropped",
+            Self::GroupingFallback { .. } => "grouping-fallback",
+            Self::ReflectanceClamped { .. } => "reflectance-clamped",
+            Self::NonAreaPrimitiveSkipped { .. } => "non-area-primitive-skipped",
+            Self::Ignored { .. } => "ignored",
+        }
+    }
+}
+
 /// A non-fatal problem found while loading, with where it happened.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Warning {
