@@ -105,6 +105,15 @@ pub enum OracleArg {
     Brightness,
 }
 
+/// Mesh grouping of the loaders (`wavelux_scene::MeshGrouping`).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MeshGroupingArg {
+    /// Connected coplanar triangles become complex polygons.
+    Surfaces,
+    /// Every triangle stays a triangle (exact parallelogram pairs merged).
+    Triangles,
+}
+
 /// Options of `solve` (and `render`).
 #[derive(Args, Clone, Debug)]
 pub struct SolveArgs {
@@ -170,9 +179,18 @@ pub struct SolveArgs {
     /// Path of the JSON result (default: OUT/NAME.json).
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Print nothing but errors.
+    /// Print nothing but warnings and errors (no progress, no summary).
     #[arg(long, short)]
     pub quiet: bool,
+    /// Turn every warning (what the loader dropped or changed, a scene feature the
+    /// method does not model, a skipped error check) into an error.
+    #[arg(long)]
+    pub strict: bool,
+    /// How triangle meshes of glTF and native files become surfaces: `surfaces`
+    /// groups connected coplanar triangles into the polygons they tile (one support
+    /// each); `triangles` keeps every triangle (the behaviour before grouping).
+    #[arg(long, value_enum, default_value_t = MeshGroupingArg::Surfaces)]
+    pub mesh_grouping: MeshGroupingArg,
     /// Image width in pixels.
     #[arg(long, default_value_t = 512)]
     pub width: usize,

@@ -22,10 +22,38 @@ pub struct Result {
     pub surfaces: Vec<SurfaceResult>,
     /// Error estimate against a quick Monte Carlo check (null when skipped).
     pub error_estimate: Option<ErrorEstimate>,
+    /// Why `error_estimate` is null (`--samples 0`, or why the check could not run);
+    /// null when there is an estimate, and for the reference (whose surfaces carry
+    /// their own standard errors).
+    #[serde(default)]
+    pub error_estimate_skipped: Option<String>,
+    /// Every warning of the run, as printed on stderr: what the loader dropped or
+    /// changed, scene features the method does not model, a skipped error check.
+    /// `--strict` turns them into errors.
+    #[serde(default)]
+    pub warnings: Vec<WarningInfo>,
     /// Run statistics.
     pub statistics: Statistics,
     /// Files written (null entries were not written).
     pub outputs: Outputs,
+}
+
+/// One warning.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WarningInfo {
+    /// A stable tag: a loader warning's kind (`degenerate-triangles-dropped`,
+    /// `grouping-fallback`, `reflectance-clamped`, ...), `not-modelled` for a scene
+    /// feature the method does not model, `error-check-skipped`.
+    pub kind: String,
+    /// The scene file (null for warnings that are not about a file).
+    pub file: Option<String>,
+    /// The element: a glTF primitive, a surface, a material, a medium, ...
+    pub element: String,
+    /// The whole warning in words (what stderr shows after `wavelux: warning: `).
+    pub message: String,
+    /// For `not-modelled`: the method that models the feature, when this build has it.
+    #[serde(default)]
+    pub use_method: Option<String>,
 }
 
 /// The scene.

@@ -808,3 +808,264 @@ fn target_error_reaches_the_target_and_records_its_rounds() -> Result<()> {
     assert_eq!(t["rounds"].as_array().unwrap().len(), rounds.len());
     Ok(())
 }
+
+/// The warnings of a JSON result as `(kind, element)` pairs.
+fn warning_kinds(v: &Value) -> Vec<(String, String)> {
+    v["warnings"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .map(|w| {
+                    (
+                        w["kind"].as_str().unwrap_or("?").to_string(),
+                        w["element"].as_str().unwrap_or("?").to_string(),
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// A glTF of two coaxial ring disks (32 sectors × 2 rings: 128 triangles each, 32 of
+/// them degenerate at the centre), written by wavelux-scene's GLB writer.
+fn write_ring_disks(dir: &Path) -> Result<()> {
+    let scene = wavelux::scene::fixtures::coaxial_disks(1.0, 1.0, 32, 2);
+    wavelux::scene::write_glb(&scene, dir.join("disks.glb"))?;
+    Ok(())
+}
+
+/// Loader warnings reach stderr (also with `--quiet`) and the JSON; `--strict` makes
+/// them an error and writes nothing. Meshes are grouped into polygons by default, and
+/// `--mesh-grouping triangles` keeps the triangles.
+#[test]
+fn loader_warnings_reach_stderr_and_json_and_strict_fails() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    write_ring_disks(d)?;
+    let base = [
+        "solve",
+        "disks.glb",
+        "--no-image",
+        "--samples",
+        "0",
+        "--max-level",
+        "1",
+        "--threads",
+        "2",
+        "--quiet",
+    ];
+    let mut args = base.to_vec();
+    args.extend_from_slice(&["--json", "g.json"]);
+    let out = run(&args, d);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        "",
+        "--quiet prints no summary"
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(
+        err.matches("wavelux: warning: disks.glb: mesh ").count(),
+        2,
+        "{err}"
+    );
+    assert!(
+        err.contains("dropped 32 degenerate (zero-area) triangle(s)"),
+        "{err}"
+    );
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(d.join("g.json"))?)?;
+    let kinds = warning_kinds(&v);
+    assert_eq!(kinds.len(), 2, "{kinds:?}");
+    for (k, element) in &kinds {
+        assert_eq!(k, "degenerate-triangles-dropped");
+        assert!(element.starts_with("mesh "), "{element}");
+    }
+    assert_eq!(v["warnings"][0]["file"], "disks.glb");
+    assert_eq!(v["error_estimate"], Value::Null);
+    assert_eq!(v["error_estimate_skipped"], "--samples 0");
+    // Grouped: one polygon support per disk; kept as triangles: one per triangle.
+    let mut args = base.to_vec();
+    args.extend_from_slice(&["--json", "t.json", "--mesh-grouping", "triangles"]);
+    ok(&args, d)?;
+    let t: Value = serde_json::from_str(&std::fs::read_to_string(d.join("t.json"))?)?;
+    let leaves = |v: &Value| v["statistics"]["leaves"].as_u64().unwrap_or(0);
+    assert!(
+        leaves(&t) >= 2 * 96,
+        "triangles: {} leaves for 192 triangles",
+        leaves(&t)
+    );
+    assert!(leaves(&v) <= 2 * 4, "grouped: {} leaves", leaves(&v));
+    let area = |v: &Value| v["scene"]["total_area"].as_f64().unwrap_or(0.0);
+    assert!((area(&v) - area(&t)).abs() < 1e-6 * area(&t));
+    // --strict: an error naming the warning; no JSON written.
+    let mut args = base.to_vec();
+    args.extend_from_slice(&["--json", "s.json", "--strict"]);
+    fails(&args, d, "--strict: 2 warning(s) are errors");
+    fails(&args, d, "degenerate");
+    assert!(!d.join("s.json").exists());
+    Ok(())
+}
+
+/// A scene whose materials and media the gathering solver does not model: a Ward
+/// lobe, a directional emitter, a participating medium. Each is a warning naming the
+/// material (and its surfaces) or the medium and the feature; the path-traced check
+/// cannot trace the directional emitter, and says so instead of claiming
+/// `--samples 0`.
+#[test]
+fn unmodelled_features_and_a_skipped_check_are_warnings() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    let toml = r#"
+name = "features"
+[[material]]
+name = "gloss"
+reflectance = 0.3
+ward = { specular = 0.2, alpha_x = 0.1 }
+[[material]]
+name = "spot"
+reflectance = 0.0
+emission = 5.0
+emission_exponent = 4.0
+[[surface]]
+name = "floor"
+material = "gloss"
+shape = { type = "parallelogram", origin = [0, 0, 0], edge_u = [1, 0, 0], edge_v = [0, 1, 0] }
+[[surface]]
+name = "lamp"
+material = "spot"
+shape = { type = "parallelogram", origin = [0, 0, 1], edge_u = [0, 1, 0], edge_v = [1, 0, 0] }
+[[medium]]
+name = "fog"
+min = [0, 0, 0]
+max = [1, 1, 1]
+resolution = [2, 2, 2]
+source = 0.0
+opacity = 0.1
+albedo = 0.5
+"#;
+    std::fs::write(d.join("f.toml"), toml)?;
+    let base = [
+        "solve",
+        "f.toml",
+        "--no-image",
+        "--samples",
+        "100",
+        "--max-level",
+        "1",
+        "--quiet",
+    ];
+    let mut args = base.to_vec();
+    args.extend_from_slice(&["--json", "f.json"]);
+    let out = run(&args, d);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(d.join("f.json"))?)?;
+    let kinds = warning_kinds(&v);
+    let want = [
+        ("not-modelled", "material \"gloss\" (surfaces \"floor\")"),
+        ("not-modelled", "material \"spot\" (surfaces \"lamp\")"),
+        ("not-modelled", "medium \"fog\""),
+        ("error-check-skipped", "error check"),
+    ];
+    assert_eq!(
+        kinds,
+        want.map(|(k, e)| (k.to_string(), e.to_string())),
+        "{err}"
+    );
+    for (w, feature) in v["warnings"].as_array().context("warnings")?.iter().zip([
+        "Ward glossy lobe",
+        "directional emitter",
+        "participating medium",
+    ]) {
+        let msg = w["message"].as_str().context("message")?;
+        assert!(msg.contains(feature), "{msg}");
+        assert!(msg.contains("not modelled by --method gather"), "{msg}");
+        assert!(err.contains(msg), "stderr lacks {msg}");
+        // Named only when this build has the method that models the feature.
+        match w["use_method"].as_str() {
+            Some(m) => assert!(msg.contains(&format!("--method {m} models it")), "{msg}"),
+            None => assert!(!msg.contains("models it"), "{msg}"),
+        }
+    }
+    assert_eq!(v["error_estimate"], Value::Null);
+    let why = v["error_estimate_skipped"].as_str().context("reason")?;
+    assert!(why.contains("directional"), "{why}");
+    // The summary gives the same reason, not `--samples 0`.
+    let out = ok(
+        &[
+            "solve",
+            "f.toml",
+            "--no-image",
+            "--samples",
+            "100",
+            "--max-level",
+            "1",
+        ],
+        d,
+    )?;
+    assert!(
+        out.contains("not estimated (the path tracer cannot"),
+        "{out}"
+    );
+    assert!(!out.contains("--samples 0"), "{out}");
+    let mut args = base.to_vec();
+    args.push("--strict");
+    fails(&args, d, "Ward glossy lobe is not modelled");
+    Ok(())
+}
+
+/// Geometry the loaders cannot represent is an error naming the file and the element.
+#[test]
+fn unrepresentable_geometry_is_a_typed_error() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    let write = |name: &str, shape: &str| -> Result<()> {
+        std::fs::write(
+            d.join(name),
+            format!(
+                "[[material]]\nname = \"m\"\nreflectance = 0.5\nemission = 1.0\n\
+                 [[surface]]\nname = \"floor\"\nmaterial = \"m\"\nshape = {shape}\n"
+            ),
+        )?;
+        Ok(())
+    };
+    write(
+        "hole.toml",
+        "{ type = \"polygon\", origin = [0,0,0], u = [1,0,0], v = [0,1,0], \
+         outer = [{ start = [0,0] }, { start = [1,0] }, { start = [1,1] }, { start = [0,1] }], \
+         holes = [[{ start = [2,0] }, { start = [3,0] }, { start = [3,0.5] }, { start = [2,0.5] }]] }",
+    )?;
+    fails(&["solve", "hole.toml", "--no-image"], d, "hole.toml");
+    fails(
+        &["solve", "hole.toml", "--no-image"],
+        d,
+        "surface \"floor\": malformed: hole 0 is not inside the outer loop",
+    );
+    write(
+        "huge.toml",
+        "{ type = \"parallelogram\", origin = [0,0,0], edge_u = [1e308,0,0], edge_v = [0,1e308,0] }",
+    )?;
+    fails(
+        &["solve", "huge.toml", "--no-image"],
+        d,
+        "surface \"floor\": non-finite value inf in area",
+    );
+    write(
+        "flat.toml",
+        "{ type = \"parallelogram\", origin = [0,0,0], edge_u = [1,0,0], edge_v = [2,0,0] }",
+    )?;
+    fails(
+        &["solve", "flat.toml", "--no-image"],
+        d,
+        "degenerate geometry",
+    );
+    Ok(())
+}

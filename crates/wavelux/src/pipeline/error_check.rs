@@ -7,18 +7,22 @@ use wavelux::scene::Scene;
 
 use crate::report;
 
-/// Compares surface averages with a quick path-traced check; `None` when the check
-/// cannot run or the scene reflects nothing.
+/// Compares surface averages with a quick path-traced check; `Err` says why the check
+/// cannot run (the path tracer rejects the scene or a surface, or the scene reflects
+/// no light, so there is nothing to compare relative to).
 pub fn estimate_error(
     scene: &Scene,
     surfaces: &[report::SurfaceResult],
     samples: u64,
     opts: &ReferenceOptions,
-) -> Option<report::ErrorEstimate> {
-    let pt = PathTracer::new(scene).ok()?;
+) -> Result<report::ErrorEstimate, String> {
+    let pt = PathTracer::new(scene)
+        .map_err(|e| format!("the path tracer cannot trace the scene: {e}"))?;
     let (mut num, mut den, mut noise, mut max_z) = (0.0, 0.0, 0.0, 0.0f64);
     for (i, s) in surfaces.iter().enumerate() {
-        let est = pt.surface_average(i, samples, opts).ok()?;
+        let est = pt
+            .surface_average(i, samples, opts)
+            .map_err(|e| format!("the path tracer cannot sample surface {:?}: {e}", s.name))?;
         for c in 0..3 {
             let d = (s.radiosity[c] - est.mean[c]).abs();
             num += s.area * d;
@@ -29,7 +33,10 @@ pub fn estimate_error(
             }
         }
     }
-    (den > 0.0).then(|| report::ErrorEstimate {
+    if den.is_nan() || den <= 0.0 {
+        return Err("the check found no reflected light to measure the error against".into());
+    }
+    Ok(report::ErrorEstimate {
         relative_l1: num / den,
         check_noise: noise / den,
         max_z,

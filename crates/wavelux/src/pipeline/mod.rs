@@ -16,6 +16,7 @@ mod shoot;
 mod summary;
 mod target;
 mod view;
+mod warnings;
 mod wavelet;
 
 use std::time::{Duration, Instant};
@@ -27,7 +28,7 @@ use wavelux::solver::Solution;
 
 pub use scenes::{list_scenes, load_scene};
 
-use crate::cli::{CameraArgs, MethodArg, SolveArgs, SolverArg};
+use crate::cli::{CameraArgs, MeshGroupingArg, MethodArg, SolveArgs, SolverArg};
 use crate::progress;
 use crate::report;
 
@@ -63,6 +64,11 @@ pub struct Outcome {
     pub surfaces: Vec<report::SurfaceResult>,
     /// The error estimate against a path-traced check (`None` when skipped).
     pub error_estimate: Option<report::ErrorEstimate>,
+    /// Why the check was skipped (`None` when it ran, and for methods that report
+    /// their own statistical error).
+    pub error_estimate_skipped: Option<String>,
+    /// Warnings of the run (e.g. a check that could not run).
+    pub warnings: Vec<report::WarningInfo>,
     /// The image (`None` with `--no-image`).
     pub image: Option<Image>,
     /// The wavelet solution, for `--gltf` and `--lightmaps` (`None` for methods
@@ -95,9 +101,18 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
     let t_start = Instant::now();
     let threads = thread_pool(a.threads)?;
     check_image_options(a)?;
-    let (scene, stem) = load_scene(&a.scene)?;
+    let grouping = match a.mesh_grouping {
+        MeshGroupingArg::Surfaces => wavelux::scene::MeshGrouping::Surfaces,
+        MeshGroupingArg::Triangles => wavelux::scene::MeshGrouping::Triangles,
+    };
+    let (scene, stem) = load_scene(&a.scene, grouping)?;
     let t_load = t_start.elapsed();
     let method = plan(a)?;
+    let info = method.info(base_info(a, threads));
+    let mut warned = warnings::from_scene(&scene);
+    warned.extend(warnings::unmodelled(&scene, &info.name, &a.scene));
+    warnings::strict(a.strict, &warned)?;
+    warnings::print(&warned);
     let view = if a.no_image {
         None
     } else {
@@ -118,7 +133,10 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
             ..ReferenceOptions::default()
         },
     };
-    let outcome = method.run(&job, &mut stats)?;
+    let mut outcome = method.run(&job, &mut stats)?;
+    warnings::strict(a.strict, &outcome.warnings)?;
+    warnings::print(&outcome.warnings);
+    warned.append(&mut outcome.warnings);
 
     let t_write = Instant::now();
     let json_path = output::json_path(a, &stem);
@@ -136,9 +154,11 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
             total_area: scene.total_area(),
             emitted_power: scene.emitted_power(),
         },
-        method: method.info(base_info(a, threads)),
+        method: info,
         surfaces: outcome.surfaces,
         error_estimate: outcome.error_estimate,
+        error_estimate_skipped: outcome.error_estimate_skipped,
+        warnings: warned,
         statistics: stats,
         outputs,
     };

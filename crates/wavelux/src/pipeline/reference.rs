@@ -62,6 +62,8 @@ impl Method for Reference {
         Ok(Outcome {
             surfaces,
             error_estimate: None,
+            error_estimate_skipped: None,
+            warnings: Vec::new(),
             image,
             solution: None,
         })

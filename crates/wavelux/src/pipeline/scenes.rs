@@ -4,11 +4,12 @@
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use wavelux::scene::{Scene, builtin};
+use wavelux::scene::{LoadOptions, MeshGrouping, Scene, builtin};
 
-/// Loads `builtin:NAME` or a scene file, validated; returns the scene and the stem of
-/// its output files (`cornell` for the built-in Cornell box, else the name).
-pub fn load_scene(source: &str) -> anyhow::Result<(Scene, String)> {
+/// Loads `builtin:NAME` or a scene file (meshes grouped as `grouping` says),
+/// validated; returns the scene and the stem of its output files (`cornell` for the
+/// built-in Cornell box, else the name).
+pub fn load_scene(source: &str, grouping: MeshGrouping) -> anyhow::Result<(Scene, String)> {
     if let Some(name) = source.strip_prefix("builtin:") {
         let scene = builtin::builtin(name).with_context(|| {
             format!(
@@ -27,7 +28,8 @@ pub fn load_scene(source: &str) -> anyhow::Result<(Scene, String)> {
     if !path.exists() {
         bail!("scene file {source:?} does not exist (use builtin:NAME for a built-in scene)");
     }
-    let scene = wavelux::scene::load(path).with_context(|| format!("cannot load {source:?}"))?;
+    let scene = wavelux::scene::load_with(path, &LoadOptions { grouping })
+        .with_context(|| format!("cannot load {source:?}"))?;
     scene
         .validate(source)
         .with_context(|| format!("invalid scene {source:?}"))?;

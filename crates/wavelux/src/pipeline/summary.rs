@@ -107,6 +107,10 @@ fn print_error(r: &report::Result) {
             100.0 * se / b.max(f64::MIN_POSITIVE)
         );
     } else {
-        println!("  error       not estimated (--samples 0)");
+        let why = r
+            .error_estimate_skipped
+            .as_deref()
+            .unwrap_or("no check ran");
+        println!("  error       not estimated ({why})");
     }
 }

@@ -8,7 +8,7 @@ use std::time::Instant;
 use wavelux::render::{RenderOptions, SolutionField};
 use wavelux::solver::{BasisKind, Solution, Visibility};
 
-use super::{Job, Outcome, error_check, secs, surface_result};
+use super::{Job, Outcome, error_check, secs, surface_result, warnings};
 use crate::cli::{BasisArg, VisibilityArg};
 use crate::progress;
 use crate::report;
@@ -44,15 +44,22 @@ pub fn finish(
     let surfaces: Vec<report::SurfaceResult> = (0..scene.surfaces.len())
         .map(|i| surface_result(scene, i, sol.surface_average(i), None))
         .collect();
-    let mut error_estimate = None;
+    let mut check = Err("--samples 0".to_string());
+    let mut warned = Vec::new();
     if job.args.samples > 0 {
         let t = Instant::now();
         let sp = progress::spinner(job.show_progress, "Monte Carlo error check");
-        error_estimate =
-            error_check::estimate_error(scene, &surfaces, job.args.samples, &job.reference);
+        check = error_check::estimate_error(scene, &surfaces, job.args.samples, &job.reference);
         sp.finish_and_clear();
         stats.time_s.monte_carlo = secs(t.elapsed());
+        if let Err(reason) = &check {
+            warned.push(warnings::error_check_skipped(reason));
+        }
     }
+    let (error_estimate, error_estimate_skipped) = match check {
+        Ok(e) => (Some(e), None),
+        Err(reason) => (None, Some(reason)),
+    };
     let mut image = None;
     if let Some(view) = job.view {
         let t = Instant::now();
@@ -77,6 +84,8 @@ pub fn finish(
     Ok(Outcome {
         surfaces,
         error_estimate,
+        error_estimate_skipped,
+        warnings: warned,
         image,
         solution: Some(sol),
     })
