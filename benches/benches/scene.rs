@@ -1,13 +1,15 @@
 //! Scene loading benches: glTF (GLB) load time for a generated 1M-triangle mesh, flat
-//! (every triangle pair merges into a parallelogram) and wavy (nothing merges),
-//! against reading the same file into memory and decoding its vertex floats (the
-//! I/O + parse floor a loader cannot beat), plus the built-in scenes.
+//! (every triangle pair merges into a parallelogram; grouped, the whole grid is one
+//! rectangle) and wavy (nothing merges or groups), with mesh grouping off
+//! (`MeshGrouping::Triangles`) and on (the default), against reading the same file into
+//! memory and decoding its vertex floats (the I/O + parse floor a loader cannot beat),
+//! plus the built-in scenes.
 #![allow(missing_docs)] // reason: criterion's macros generate undocumented items
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
-use wavelux::scene::{GltfOptions, builtin, load_gltf};
+use wavelux::scene::{GltfOptions, MeshGrouping, builtin, load_gltf};
 
 /// Quads along x and z: 1000 × 500 quads = 1 000 000 triangles.
 const NX: usize = 1000;
@@ -111,17 +113,34 @@ fn gltf_load(c: &mut Criterion) {
     let wavy = dir.join("grid-wavy.glb");
     write_grid_glb(&flat, false);
     write_grid_glb(&wavy, true);
+    // Triangles kept (the merging alone), and the default mesh grouping.
+    let tri = GltfOptions {
+        grouping: MeshGrouping::Triangles,
+        ..GltfOptions::default()
+    };
+    let grouped = GltfOptions::default();
     // Sanity: the loads are what we think they are.
-    let s = load_gltf(&flat, &GltfOptions::default()).expect("load flat");
+    let s = load_gltf(&flat, &tri).expect("load flat");
     let wavelux::scene::Shape::Mesh(m) = &s.surfaces[0].shape else {
         panic!("mesh expected")
     };
     assert_eq!((m.parallelograms.len(), m.triangles.len()), (NX * NZ, 0));
-    let s = load_gltf(&wavy, &GltfOptions::default()).expect("load wavy");
+    let s = load_gltf(&wavy, &tri).expect("load wavy");
     let wavelux::scene::Shape::Mesh(m) = &s.surfaces[0].shape else {
         panic!("mesh expected")
     };
     assert_eq!(m.triangle_count(), 2 * NX * NZ);
+    // Grouped, the flat grid is one rectangle; the wavy one stays triangles.
+    let s = load_gltf(&flat, &grouped).expect("load flat");
+    assert!(matches!(
+        s.surfaces[..],
+        [wavelux::scene::Surface {
+            shape: wavelux::scene::Shape::Parallelogram { .. },
+            ..
+        }]
+    ));
+    let s = load_gltf(&wavy, &grouped).expect("load wavy");
+    assert_eq!(s.surfaces[0].shape.element_count(), 2 * NX * NZ);
 
     let mut g = c.benchmark_group("gltf_load_1m_triangles");
     g.sample_size(10);
@@ -130,10 +149,16 @@ fn gltf_load(c: &mut Criterion) {
         b.iter(|| black_box(read_and_decode(black_box(&flat))))
     });
     g.bench_function("flat_merged", |b| {
-        b.iter(|| load_gltf(black_box(&flat), &GltfOptions::default()).expect("load"))
+        b.iter(|| load_gltf(black_box(&flat), &tri).expect("load"))
     });
     g.bench_function("wavy_unmerged", |b| {
-        b.iter(|| load_gltf(black_box(&wavy), &GltfOptions::default()).expect("load"))
+        b.iter(|| load_gltf(black_box(&wavy), &tri).expect("load"))
+    });
+    g.bench_function("flat_grouped", |b| {
+        b.iter(|| load_gltf(black_box(&flat), &grouped).expect("load"))
+    });
+    g.bench_function("wavy_grouped", |b| {
+        b.iter(|| load_gltf(black_box(&wavy), &grouped).expect("load"))
     });
     g.finish();
     let _ = std::fs::remove_dir_all(&dir);

@@ -315,18 +315,22 @@ fn grow_groups(p: &[DVec3], tris: &[Tri], tol: f64) -> Vec<Vec<usize>> {
     groups
 }
 
-/// The boundary of a set of triangles: directed edges with net multiplicity ±1.
+/// The boundary of a set of triangles: directed edges with net multiplicity ±1 (by
+/// sorting the undirected edges, each with `+1` in its `min → max` direction).
 fn boundary_edges(edges: impl Iterator<Item = (u32, u32)>) -> Result<Vec<(u32, u32)>, Reason> {
-    let mut net: BTreeMap<(u32, u32), i32> = BTreeMap::new();
-    for (a, b) in edges {
-        if a < b {
-            *net.entry((a, b)).or_default() += 1;
-        } else {
-            *net.entry((b, a)).or_default() -= 1;
-        }
-    }
+    let mut all: Vec<(u32, u32, i32)> = edges
+        .map(|(a, b)| if a < b { (a, b, 1) } else { (b, a, -1) })
+        .collect();
+    all.sort_unstable();
     let mut out = Vec::new();
-    for ((a, b), c) in net {
+    let mut k = 0;
+    while k < all.len() {
+        let (a, b) = (all[k].0, all[k].1);
+        let mut c = 0;
+        while k < all.len() && (all[k].0, all[k].1) == (a, b) {
+            c += all[k].2;
+            k += 1;
+        }
         match c {
             0 => {}
             1 => out.push((a, b)),
