@@ -14,7 +14,7 @@
 //!
 //! What glTF cannot say is an error ([`SceneError::Unsupported`] naming the surface or
 //! material), never dropped silently: a different back material, textures, Ward lobes,
-//! directional emitters, media.
+//! directional emitters, media, punctual lights.
 
 use std::path::Path;
 
@@ -79,7 +79,7 @@ fn push_view(bin: &mut Vec<u8>, views: &mut Vec<Value>, bytes: &[u8], target: u3
 /// # Errors
 /// [`SceneError::Unsupported`] for a surface that is not a triangle, parallelogram or
 /// mesh, a two-sided surface with a different back material, a textured, Ward or
-/// directional material, a medium or an orthographic camera;
+/// directional material, a medium, a punctual light or an orthographic camera;
 /// [`SceneError::NonFinite`] for coordinates that do not fit an `f32`.
 pub fn to_glb(scene: &Scene, file: &str) -> Result<Vec<u8>, SceneError> {
     if let Some(m) = scene.media.first() {
@@ -87,6 +87,13 @@ pub fn to_glb(scene: &Scene, file: &str) -> Result<Vec<u8>, SceneError> {
             file,
             format!("medium {:?}", m.name),
             "participating media (glTF has none)",
+        ));
+    }
+    if let Some(l) = scene.lights.first() {
+        return Err(unsupported(
+            file,
+            format!("light {:?}", l.name),
+            "punctual lights (this writer has no KHR_lights_punctual)",
         ));
     }
     let mut bin: Vec<u8> = Vec::new();

@@ -47,9 +47,9 @@ pub mod camera;
 pub mod error;
 pub mod fixtures;
 pub mod gltf_load;
-pub mod light;
 pub mod gltf_write;
 pub mod group;
+pub mod light;
 pub mod material;
 pub mod medium;
 pub mod meshless_scenes;
@@ -66,9 +66,9 @@ pub use analytic::{AnalyticPatch, AnalyticSurface, Placement, Region};
 pub use camera::{Camera, Projection};
 pub use error::{SceneError, Warning, WarningKind};
 pub use gltf_load::{GltfOptions, load_gltf, load_gltf_slice};
-pub use light::{Light, LightKind};
 pub use gltf_write::{to_glb, write_glb};
 pub use group::{Grouped, MeshGrouping, MeshPart, group_mesh};
+pub use light::{Light, LightKind};
 pub use material::{
     EmissionProfile, Material, ReflectancePolicy, Rgb, Texture, TextureRef, WardParams,
 };

@@ -910,8 +910,8 @@ fn loader_warnings_reach_stderr_and_json_and_strict_fails() -> Result<()> {
     Ok(())
 }
 
-/// A scene whose materials and media the gathering solver does not model: a Ward
-/// lobe, a directional emitter, a participating medium. Each is a warning naming the
+/// A scene whose materials, lights and media the gathering solver does not model: a
+/// Ward lobe, a directional emitter, a point light, a participating medium. Each is a warning naming the
 /// material (and its surfaces) or the medium and the feature; the path-traced check
 /// cannot trace the directional emitter, and says so instead of claiming
 /// `--samples 0`.
@@ -938,6 +938,11 @@ shape = { type = "parallelogram", origin = [0, 0, 0], edge_u = [1, 0, 0], edge_v
 name = "lamp"
 material = "spot"
 shape = { type = "parallelogram", origin = [0, 0, 1], edge_u = [0, 1, 0], edge_v = [1, 0, 0] }
+[[light]]
+name = "bulb"
+type = "point"
+position = [0.5, 0.5, 0.5]
+intensity = 1.0
 [[medium]]
 name = "fog"
 min = [0, 0, 0]
@@ -972,6 +977,7 @@ albedo = 0.5
     let want = [
         ("not-modelled", "material \"gloss\" (surfaces \"floor\")"),
         ("not-modelled", "material \"spot\" (surfaces \"lamp\")"),
+        ("not-modelled", "light \"bulb\""),
         ("not-modelled", "medium \"fog\""),
         ("error-check-skipped", "error check"),
     ];
@@ -983,6 +989,7 @@ albedo = 0.5
     for (w, feature) in v["warnings"].as_array().context("warnings")?.iter().zip([
         "Ward glossy lobe",
         "directional emitter",
+        "punctual light",
         "participating medium",
     ]) {
         let msg = w["message"].as_str().context("message")?;

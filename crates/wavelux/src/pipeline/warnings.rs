@@ -42,6 +42,12 @@ pub const MEDIUM: Feature = Feature {
     instead: "it is ignored (no emission, absorption or scattering)",
     modelled_by: &["global-cube"],
 };
+/// Punctual (point and spot) lights.
+pub const PUNCTUAL: Feature = Feature {
+    what: "a punctual light",
+    instead: "it is ignored (it emits nothing)",
+    modelled_by: &["meshless"],
+};
 /// Reflectance and emission textures.
 pub const TEXTURE: Feature = Feature {
     what: "a reflectance or emission texture",
@@ -113,7 +119,7 @@ fn not_modelled(feature: &Feature, method: &str, element: String, file: &str) ->
     }
 }
 
-/// The scene features (per material and per medium) that `method` does not model.
+/// The scene features (per material, light and medium) that `method` does not model.
 /// Materials no surface uses are not reported.
 pub fn unmodelled(scene: &Scene, method: &str, file: &str) -> Vec<WarningInfo> {
     let mut out = Vec::new();
@@ -142,6 +148,16 @@ pub fn unmodelled(scene: &Scene, method: &str, file: &str) -> Vec<WarningInfo> {
                 let element = format!("material {:?} (surfaces {used})", m.name);
                 out.push(not_modelled(feature, method, element, file));
             }
+        }
+    }
+    if !PUNCTUAL.modelled_by(method) {
+        for l in &scene.lights {
+            out.push(not_modelled(
+                &PUNCTUAL,
+                method,
+                format!("light {:?}", l.name),
+                file,
+            ));
         }
     }
     if !MEDIUM.modelled_by(method) {
