@@ -1353,7 +1353,7 @@ fn to_solution(
             energy.emitted[ch] += e;
         }
         energy.absorbed[ch] = abs;
-        energy.escaped[ch] = sb - sh;
+        energy.operator_loss[ch] = sb - sh;
         energy.unshot[ch] = unshot;
     }
     let field = CdvField {
@@ -1363,7 +1363,7 @@ fn to_solution(
         coeffs: leaf_b,
         area: system.area.clone(),
     };
-    Ok(Solution::from_cdv(
+    let mut sol = Solution::from_cdv(
         patches.clone(),
         prep.patches.by_surface.clone(),
         tree,
@@ -1374,7 +1374,9 @@ fn to_solution(
         stats,
         conv,
         Arc::new(field),
-    ))
+    );
+    sol.measure_escape(prep);
+    Ok(sol)
 }
 
 #[cfg(test)]

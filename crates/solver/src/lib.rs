@@ -28,6 +28,7 @@
 //!   function;
 //! - [`target`]: solving to a target error (refine–solve–estimate rounds with
 //!   Dörfler marking of the links' error indicators);
+//! - [`escape`]: escaped power measured by rays (independent of the operator);
 //! - [`standard`]: the standard decomposition of the same links (tree wavelet basis,
 //!   one assembled sparse matrix; Ziegler §2.2.3, Glossy §3.5), chosen by
 //!   [`SolverConfig::decomposition`];
@@ -40,6 +41,7 @@
 pub mod basis;
 pub mod cdv;
 pub mod error;
+pub mod escape;
 pub mod estimate;
 pub mod hierarchy;
 pub mod mask;
@@ -828,5 +830,7 @@ pub fn solve_prepared(prep: &Prepared) -> Result<Solution, SolverError> {
             cfg.tolerance,
         )?);
     }
-    prev.ok_or_else(|| SolverError::InvalidScene("no stage ran".into()))
+    let mut sol = prev.ok_or_else(|| SolverError::InvalidScene("no stage ran".into()))?;
+    sol.measure_escape(prep);
+    Ok(sol)
 }

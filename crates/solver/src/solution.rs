@@ -8,22 +8,52 @@ use wavelux_linear::Convergence;
 
 use crate::basis::TreeBasis;
 use crate::cdv::CdvField;
+use crate::escape::{self, Escape};
 use crate::hierarchy::NodeKey;
 use crate::support::{Patch, Side};
 use crate::system::System;
 
 /// Energy accounting (W, per RGB channel).
+///
+/// `escaped` is measured by rays from the geometry ([`crate::escape`]), not derived
+/// from the other terms, so [`Energy::imbalance`] = `emitted − absorbed − unshot −
+/// escaped` is a real check: it equals `operator_loss − escaped`, the transfer
+/// operator's row-sum error against the geometry, plus the estimate's noise
+/// (`escaped_std_error`).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Energy {
     /// Emitted power `Σ E·A` over real areas.
     pub emitted: [f64; 3],
     /// Absorbed power `Σ (1 − ρ) ∫H dA` over the real parts of all receiving sides.
     pub absorbed: [f64; 3],
-    /// Power that leaves the modelled sides without arriving at one (open scenes,
-    /// back sides of one-sided surfaces): `Σ ∫B − Σ ∫H`.
+    /// Power that leaves the modelled sides without arriving at a receiving side (open
+    /// scenes, back sides of one-sided surfaces, black sides), measured by rays from
+    /// the propagated radiosity ([`crate::escape`]; `B` for gathering, `B − ΔB̃` for
+    /// shooting).
     pub escaped: [f64; 3],
-    /// Power not yet propagated by the iteration: `Σ ∫ (E + ρH − B)`.
+    /// Standard error of `escaped` (the ray estimate's noise).
+    pub escaped_std_error: [f64; 3],
+    /// Rays cast to measure `escaped`.
+    pub escape_rays: u64,
+    /// The solver's own count of the power its discrete operator delivers to no
+    /// receiver: `Σ∫B − Σ∫H` for gathering, `Σ_shots (P − ∫H)` for shooting. Equals
+    /// `escaped` up to the transfer blocks' error (form factors, visibility,
+    /// quadrature).
+    pub operator_loss: [f64; 3],
+    /// Power not yet propagated by the iteration: `Σ ∫ (E + ρH − B)` (gathering: the
+    /// linear residual; shooting: the unshot residuals `∫ΔB̃`).
     pub unshot: [f64; 3],
+}
+
+impl Energy {
+    /// `emitted − absorbed − unshot − escaped` per channel: zero for an exact operator
+    /// and an exact escape measurement; in practice the operator's row-sum error
+    /// (`operator_loss − escaped`) plus the noise of `escaped`.
+    pub fn imbalance(&self) -> [f64; 3] {
+        std::array::from_fn(|c| {
+            self.emitted[c] - self.absorbed[c] - self.unshot[c] - self.escaped[c]
+        })
+    }
 }
 
 /// Statistics of a solve.
@@ -148,7 +178,7 @@ impl Solution {
                 energy.emitted[ch] += e * area;
             }
             energy.absorbed[ch] = abs;
-            energy.escaped[ch] = sum_b - sum_h;
+            energy.operator_loss[ch] = sum_b - sum_h;
             energy.unshot[ch] = unshot;
         }
         Self::from_parts(
@@ -245,24 +275,22 @@ impl Solution {
         if let Some(f) = &self.cdv {
             return f.radiosity(patch, s, t);
         }
-        let h = &self.system.h;
-        let n = h.n;
-        let leaf = h.leaf_at(patch, s, t) as usize;
-        let k = h.keys[leaf];
-        let reg = k.region();
-        let mut vals = [0.0; 16];
-        self.basis.eval(
-            (s.clamp(0.0, 1.0) - reg.s0) / reg.h,
-            (t.clamp(0.0, 1.0) - reg.t0) / reg.h,
-            &mut vals[..n],
-        );
-        let inv = 1.0 / self.system.node_area[leaf].sqrt();
-        std::array::from_fn(|ch| {
-            (0..n)
-                .map(|a| self.node_b[ch][leaf * n + a] * vals[a])
-                .sum::<f64>()
-                * inv
-        })
+        eval_nodes(&self.system, &self.basis, &self.node_b, patch, s, t)
+    }
+
+    /// Measures the escaped power by rays with this solution's radiosity as the
+    /// propagated radiosity (gathering; see [`crate::escape`]), setting
+    /// `energy.escaped`, `escaped_std_error` and `escape_rays`.
+    pub fn measure_escape(&mut self, prep: &crate::Prepared) {
+        let e = escape::measure(prep, &self.system.h, &|p, s, t| self.radiosity(p, s, t));
+        self.set_escape(e);
+    }
+
+    /// Records a ray measurement of the escaped power.
+    pub(crate) fn set_escape(&mut self, e: Escape) {
+        self.energy.escaped = e.power;
+        self.energy.escaped_std_error = e.std_error;
+        self.energy.escape_rays = e.rays;
     }
 
     /// Average radiosity over a node's cell, if the node exists.
@@ -354,4 +382,34 @@ impl Solution {
         }
         x
     }
+}
+
+/// Value at `(s, t)` of patch `patch` of the tree expansion with node coefficients
+/// `coeffs` (per channel, every node of `system.h`, orthonormal basis functions
+/// scaled by `1/√area`): the leaf containing the point evaluates its functions.
+pub(crate) fn eval_nodes(
+    system: &System,
+    basis: &TreeBasis,
+    coeffs: &[Vec<f64>; 3],
+    patch: usize,
+    s: f64,
+    t: f64,
+) -> [f64; 3] {
+    let h = &system.h;
+    let n = h.n;
+    let leaf = h.leaf_at(patch, s, t) as usize;
+    let reg = h.keys[leaf].region();
+    let mut vals = [0.0; 16];
+    basis.eval(
+        (s.clamp(0.0, 1.0) - reg.s0) / reg.h,
+        (t.clamp(0.0, 1.0) - reg.t0) / reg.h,
+        &mut vals[..n],
+    );
+    let inv = 1.0 / system.node_area[leaf].sqrt();
+    std::array::from_fn(|ch| {
+        (0..n)
+            .map(|a| coeffs[ch][leaf * n + a] * vals[a])
+            .sum::<f64>()
+            * inv
+    })
 }

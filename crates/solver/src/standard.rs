@@ -718,7 +718,7 @@ impl<'a> StandardSystem<'a> {
         stats.elements = self.sys.h.node_count();
         stats.leaves = self.sys.h.leaves.len();
         stats.links = self.sys.h.link_count();
-        Ok(Solution::new(
+        let mut sol = Solution::new(
             prep.patches.patches.clone(),
             prep.patches.by_surface.clone(),
             self.sys.clone(),
@@ -726,7 +726,9 @@ impl<'a> StandardSystem<'a> {
             leaf_b,
             stats,
             conv,
-        ))
+        );
+        sol.measure_escape(prep);
+        Ok(sol)
     }
 }
 

@@ -292,7 +292,7 @@ pub fn solve_to_target(scene: &Scene, cfg: &TargetConfig) -> Result<TargetOutcom
         if est.relative_l1 <= cfg.target {
             let stop_reason = format!("estimate {:.4} <= target {}", est.relative_l1, cfg.target);
             return Ok(TargetOutcome {
-                solution: sol,
+                solution: with_escape(sol, &prep),
                 estimate: est,
                 choice,
                 rounds,
@@ -322,7 +322,7 @@ pub fn solve_to_target(scene: &Scene, cfg: &TargetConfig) -> Result<TargetOutcom
                 )
             };
             return Ok(TargetOutcome {
-                solution: sol,
+                solution: with_escape(sol, &prep),
                 estimate: est,
                 choice,
                 rounds,
@@ -345,6 +345,12 @@ pub fn solve_to_target(scene: &Scene, cfg: &TargetConfig) -> Result<TargetOutcom
         value: cfg.max_rounds.to_string(),
         reason: "must be >= 1",
     })
+}
+
+/// `sol` with its escaped power measured ([`Solution::measure_escape`]).
+fn with_escape(mut sol: Solution, prep: &Prepared) -> Solution {
+    sol.measure_escape(prep);
+    sol
 }
 
 /// Dörfler marking: the smallest set of eligible entries with the largest values

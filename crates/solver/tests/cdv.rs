@@ -143,7 +143,7 @@ fn unoccluded_converges_and_agrees_with_m2() {
     assert!(d <= 1.5 * (e_cdv + e_m2), "CDV vs M2 {d}");
 }
 
-/// Energy accounting closes on an open scene; every linear method gives the same
+/// Energy balances against the measured escape on an open scene; every linear method gives the same
 /// solution; results are bitwise independent of the thread count.
 #[test]
 fn energy_methods_and_determinism() {
@@ -151,8 +151,13 @@ fn energy_methods_and_determinism() {
     let base = cdv(1e-3, 4);
     let reference = solve(&scene, &base).unwrap();
     let e = reference.energy;
-    let sum = e.absorbed[0] + e.escaped[0] + e.unshot[0];
-    assert!((sum - e.emitted[0]).abs() < 1e-9 * e.emitted[0]);
+    // The measured escape balances the operator within 4σ + 1 % (tests/energy.rs).
+    assert!(
+        e.imbalance()[0].abs() <= 4.0 * e.escaped_std_error[0] + 1e-2 * e.emitted[0],
+        "imbalance {} (σ {})",
+        e.imbalance()[0],
+        e.escaped_std_error[0]
+    );
     assert!(
         e.unshot[0].abs() < 1e-8 * e.emitted[0],
         "unshot {}",

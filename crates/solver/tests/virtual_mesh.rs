@@ -604,10 +604,12 @@ fn closed_sphere_interior_is_a_furnace() {
         assert!(rel(got, want) < 1e-6, "B({a},{b}) = {got}, want {want}");
     }
     println!(
-        "sphere furnace: emitted {} absorbed {} escaped {:.3e}",
-        e.emitted[0], e.absorbed[0], e.escaped[0]
+        "sphere furnace: emitted {} absorbed {} escaped (rays) {:.3e} operator loss {:.3e}",
+        e.emitted[0], e.absorbed[0], e.escaped[0], e.operator_loss[0]
     );
-    assert!(e.escaped[0].abs() < 1e-6 * e.emitted[0]);
+    // Closed: no ray escapes, and the operator's row sums are exact to 1e-6.
+    assert_eq!(e.escaped[0], 0.0);
+    assert!(e.imbalance()[0].abs() < 1e-6 * e.emitted[0]);
     assert!(rel(e.absorbed[0], e.emitted[0]) < 1e-6);
 }
 
@@ -667,15 +669,20 @@ fn closed_cylinder_interior_conserves_energy() {
     let sol = solve(&s, &cfg).unwrap();
     let e = sol.energy;
     println!(
-        "cylinder furnace: emitted {} absorbed {} escaped {:.3e} unshot {:.3e}",
-        e.emitted[0], e.absorbed[0], e.escaped[0], e.unshot[0]
+        "cylinder furnace: emitted {} absorbed {} escaped (rays) {:.3e} operator loss {:.3e} unshot {:.3e}",
+        e.emitted[0], e.absorbed[0], e.escaped[0], e.operator_loss[0], e.unshot[0]
     );
-    let balance = e.emitted[0] - e.absorbed[0] - e.escaped[0] - e.unshot[0];
-    assert!(balance.abs() < 1e-9 * e.emitted[0]);
+    // Closed: rays leave only through numerical cracks at the rims (none expected);
+    // the imbalance is the operator's row-sum error at the rims.
     assert!(
-        e.escaped[0].abs() < 0.02 * e.emitted[0],
+        e.escaped[0] <= 1e-3 * e.emitted[0],
         "escaped {}",
         e.escaped[0]
+    );
+    assert!(
+        e.imbalance()[0].abs() < 0.02 * e.emitted[0],
+        "imbalance {}",
+        e.imbalance()[0]
     );
     let want = 1.0 / (1.0 - 0.5);
     let inside = sol.by_surface[0][1];

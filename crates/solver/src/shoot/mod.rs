@@ -23,8 +23,10 @@
 //! Energy: every shot moves power `P = ∫ΔB̃_i`; the part arriving at reflecting
 //! receivers `∫H` is split into reflected `ρ∫H` (added to the residuals) and absorbed
 //! `(1 − ρ)∫H`; the rest (`P − ∫H`: open scenes, back sides, black receivers, which
-//! are not shot onto, and quadrature error) is counted as escaped. So
-//! `emitted = absorbed + unshot + escaped` holds after every shot (to rounding).
+//! are not shot onto, and quadrature error) is the operator's loss
+//! ([`Energy::operator_loss`]), so `emitted = absorbed + unshot + operator_loss` holds
+//! after every shot by construction. The escaped power itself is measured by rays from
+//! the shot radiosity `B̃ − ΔB̃` ([`crate::escape`]), independently of the transfers.
 //!
 //! The oracle threshold [`ShootConfig::eps`] is relative. The errors of successive
 //! shots add up, and with a fixed absolute tolerance the many weak late shots, all
@@ -407,13 +409,16 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
     let mut leaf_h: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; system.dim()]);
     let mut energy = Energy {
         emitted,
-        escaped,
+        operator_loss: escaped,
         ..Energy::default()
     };
+    // The shot radiosity B̃ − ΔB̃ at every node, for the escape measurement.
+    let mut node_shot: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; nn * n]);
     let mut tree_bytes = 0;
     for t in &trees {
         tree_bytes += t.bytes();
         let b = t.consistent(&t.b, &ts);
+        let db = t.consistent(&t.db, &ts);
         let hc = t.consistent(&t.h, &ts);
         let un = t.integral(&t.db);
         let ih = t.integral(&t.h);
@@ -429,6 +434,10 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
             let leaf = system.h.leaf_of[g];
             for ch in 0..3 {
                 node_b[ch][g * n..][..n].copy_from_slice(&b[(k * 3 + ch) * n..][..n]);
+                for a in 0..n {
+                    let idx = (k * 3 + ch) * n + a;
+                    node_shot[ch][g * n + a] = b[idx] - db[idx];
+                }
                 if leaf != u32::MAX {
                     leaf_h[ch][leaf as usize * n..][..n]
                         .copy_from_slice(&hc[(k * 3 + ch) * n..][..n]);
@@ -457,7 +466,10 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
         cells_full,
         ..Statistics::default()
     };
-    Ok(Solution::from_parts(
+    let esc = crate::escape::measure(prep, &system.h, &|p, s, t| {
+        crate::solution::eval_nodes(&system, &prep.basis, &node_shot, p, s, t)
+    });
+    let mut sol = Solution::from_parts(
         patches.clone(),
         prep.patches.by_surface.clone(),
         system,
@@ -467,5 +479,7 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
         energy,
         stats,
         Vec::new(),
-    ))
+    );
+    sol.set_escape(esc);
+    Ok(sol)
 }
