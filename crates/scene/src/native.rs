@@ -247,12 +247,25 @@ enum ShapeSpec {
     },
 }
 
-/// A grid: one number for every voxel, or all voxel values (x fastest).
+/// A grid: one number for every voxel, all voxel values (x fastest), or a table
+/// `{ rgb = [r, g, b] }` (constant colour), `{ values = [...], channels = 3 }`
+/// (interleaved RGB) or `{ file = "s.raw", channels = 1 | 3 }` (raw little-endian f32,
+/// relative to the scene file).
 #[derive(Debug, Deserialize)]
 #[serde(untagged)]
 enum GridSpec {
     Constant(f64),
     Values(Vec<f64>),
+    Table(GridTable),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GridTable {
+    rgb: Option<[f64; 3]>,
+    values: Option<Vec<f64>>,
+    file: Option<String>,
+    channels: Option<usize>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -614,11 +627,55 @@ fn shape_of(spec: &ShapeSpec, file: &str, element: &str) -> Result<(Shape, usize
     })
 }
 
-fn grid(g: &GridSpec, n: usize) -> Vec<f64> {
-    match g {
-        GridSpec::Constant(c) => vec![*c; n],
-        GridSpec::Values(v) => v.clone(),
+/// Expands a grid to one colour per voxel (`n` voxels). `dir` resolves grid files;
+/// `element` names the medium and grid in errors; `grey_only` rejects RGB (opacity).
+fn grid(
+    g: &GridSpec,
+    n: usize,
+    dir: &Path,
+    file: &str,
+    element: &str,
+    grey_only: bool,
+) -> Result<Vec<Rgb>, SceneError> {
+    let malformed = |what: String| SceneError::Malformed {
+        file: file.into(),
+        element: element.into(),
+        what,
+    };
+    let out = match g {
+        GridSpec::Constant(c) => vec![Rgb::grey(*c); n],
+        GridSpec::Values(v) => v.iter().map(|&x| Rgb::grey(x)).collect(),
+        GridSpec::Table(t) => {
+            let channels = t.channels.unwrap_or(1);
+            match (&t.rgb, &t.values, &t.file) {
+                (Some(c), None, None) if t.channels.is_none() => vec![Rgb(*c); n],
+                (None, Some(v), None) => match channels {
+                    1 => v.iter().map(|&x| Rgb::grey(x)).collect(),
+                    3 if v.len() % 3 == 0 => {
+                        v.chunks_exact(3).map(|c| Rgb::new(c[0], c[1], c[2])).collect()
+                    }
+                    _ => {
+                        return Err(malformed(format!(
+                            "{} values with channels = {channels} (1 or 3, and a multiple of it)",
+                            v.len()
+                        )));
+                    }
+                },
+                (None, None, Some(f)) => {
+                    crate::medium::read_raw_grid(&dir.join(f), n, channels, element)?
+                }
+                _ => {
+                    return Err(malformed(
+                        "a grid table needs exactly one of `rgb`, `values` or `file` (`channels` only with values or file)".into(),
+                    ));
+                }
+            }
+        }
+    };
+    if grey_only && out.iter().any(|c| c.0[0] != c.0[1] || c.0[0] != c.0[2]) {
+        return Err(malformed("opacity is grey: one channel only".into()));
     }
+    Ok(out)
 }
 
 fn default_value(v: &toml::Value) -> Option<DefaultValue> {
@@ -838,14 +895,19 @@ fn parse_inner(
                 element: format!("medium {:?}", m.name),
                 what: format!("resolution {:?} exceeds {MAX_VOXELS} voxels", m.resolution),
             })?;
+        let dir = base.unwrap_or(Path::new("."));
+        let element = |g: &str| format!("medium {:?} {g}", m.name);
         let medium = Medium {
             name: m.name.clone(),
             min: DVec3::from_array(m.min),
             max: DVec3::from_array(m.max),
             resolution: m.resolution,
-            source: grid(&m.source, n),
-            opacity: grid(&m.opacity, n),
-            albedo: grid(&m.albedo, n),
+            source: grid(&m.source, n, dir, file, &element("source"), false)?,
+            opacity: grid(&m.opacity, n, dir, file, &element("opacity"), true)?
+                .into_iter()
+                .map(|c| c.0[0])
+                .collect(),
+            albedo: grid(&m.albedo, n, dir, file, &element("albedo"), false)?,
         };
         medium.validate(file)?;
         scene.media.push(medium);

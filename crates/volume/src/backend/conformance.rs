@@ -1,0 +1,1 @@
+//! Conformance suite for projection backends (filled in below).

@@ -1,0 +1,675 @@
+//! The CPU projector: rayon over receivers, one ray per framebuffer pixel, exact
+//! cell-by-cell compositing (GlobalCube §3.1's slices, integrated exactly per cell).
+//!
+//! * [`Projection::Exact`]: every cell at full resolution ("every slice at full
+//!   resolution"); the traversal steps from cell to cell of the active hierarchy, so a
+//!   coarse leaf or an empty octree node is crossed in one step (homogeneous cells
+//!   composite exactly: the result equals stepping through their voxels).
+//! * [`Projection::Pyramid`]: beyond the distance where a pixel's footprint
+//!   `t · √ΔΩ` reaches `2^l` voxels, the ray samples level `l` of a pyramid rebuilt from
+//!   the current emission at every call (mean transmittance per voxel, summed power,
+//!   isotropic emission); the level-of-detail sampling of volume rendering, needed at
+//!   256³ where full-resolution rays are too long.
+//!
+//! Determinism: receivers are independent and each ray is summed in pixel order, so
+//! the result does not depend on the thread count.
+
+use rayon::prelude::*;
+
+use super::{
+    Emission, FaceRgb, GatherStats, ProjectionScene, Projector, Receiver, TraversalCell,
+    check_inputs,
+};
+use crate::cell::{Collision, entry_weights, total_weight_fast};
+use crate::cubemap::{CubeMap, face_index};
+use crate::error::VolumeError;
+
+/// Transmittance below which a ray stops (relative loss of a uniform field ≤ this).
+pub const MIN_TRANSMITTANCE: f64 = 1e-13;
+
+/// Which samples the rays take.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Projection {
+    /// Every cell at full resolution (default).
+    #[default]
+    Exact,
+    /// Lowpass levels matching the pixel footprint.
+    Pyramid,
+}
+
+/// The CPU backend.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CpuProjector {
+    /// Sampling mode.
+    pub projection: Projection,
+    /// Adaptive supersampling.
+    pub antialias: AntiAlias,
+}
+
+impl CpuProjector {
+    /// A projector with the given sampling mode and supersampling.
+    #[must_use]
+    pub fn new(projection: Projection, antialias: AntiAlias) -> Self {
+        Self {
+            projection,
+            antialias,
+        }
+    }
+}
+
+/// One level of the pyramid: per coarse cell the extinction per voxel edge and the
+/// isotropic emission coefficient.
+struct Level {
+    side: usize,
+    extinction: Vec<f64>,
+    emission: Vec<[f64; 3]>,
+}
+
+struct Pyramid {
+    /// `levels[l - 1]` is level `l` (cells of `2^l` voxels).
+    levels: Vec<Level>,
+}
+
+impl Pyramid {
+    fn build(scene: &ProjectionScene<'_>, emission: &Emission<'_>) -> Self {
+        let n = scene.side;
+        let max_level = n.trailing_zeros() as usize;
+        let mut levels = Vec::with_capacity(max_level);
+        for l in 1..=max_level {
+            let side = n >> l;
+            let mut trans = vec![0.0; side * side * side];
+            let mut power = vec![[0.0; 3]; side * side * side];
+            for (c, p) in scene.cells.iter().zip(emission.power) {
+                let t = if c.extinction == f64::INFINITY {
+                    0.0
+                } else {
+                    (-c.extinction).exp()
+                };
+                let size = c.size as usize;
+                if size >= (1 << l) {
+                    let k = size >> l;
+                    let share = 1.0 / (k * k * k) as f64;
+                    let vol = (1usize << (3 * l)) as f64;
+                    let o = c.origin.map(|v| v as usize >> l);
+                    for z in o[2]..o[2] + k {
+                        for y in o[1]..o[1] + k {
+                            for x in o[0]..o[0] + k {
+                                let i = x + side * (y + side * z);
+                                trans[i] += vol * t;
+                                for ch in 0..3 {
+                                    power[i][ch] += share * p[ch];
+                                }
+                            }
+                        }
+                    }
+                } else {
+                    let o = c.origin.map(|v| v as usize >> l);
+                    let i = o[0] + side * (o[1] + side * o[2]);
+                    trans[i] += (size * size * size) as f64 * t;
+                    for ch in 0..3 {
+                        power[i][ch] += p[ch];
+                    }
+                }
+            }
+            let vol = (1usize << (3 * l)) as f64;
+            let edge = scene.voxel * (1usize << l) as f64;
+            let mut extinction = vec![0.0; trans.len()];
+            let mut em = vec![[0.0; 3]; trans.len()];
+            for i in 0..trans.len() {
+                let mean = (trans[i] / vol).clamp(0.0, 1.0);
+                let k = if mean <= 0.0 { f64::INFINITY } else { -mean.ln() };
+                extinction[i] = k;
+                let a = if k == f64::INFINITY {
+                    k
+                } else {
+                    k * (1usize << l) as f64
+                };
+                let scale = if k > 0.0 {
+                    let g = total_weight_fast(a);
+                    if g > 0.0 { 1.0 / (g * edge * edge) } else { 0.0 }
+                } else {
+                    1.0 / (4.0 * std::f64::consts::PI * edge * edge * edge)
+                };
+                em[i] = power[i].map(|p| p * scale);
+            }
+            levels.push(Level {
+                side,
+                extinction,
+                emission: em,
+            });
+        }
+        Self { levels }
+    }
+}
+
+/// A ray's result: radiance per channel and cells composited.
+struct Traced {
+    radiance: [f64; 3],
+    steps: u64,
+}
+
+/// A ray: origin and direction in voxel units, the first voxel and the face of it the
+/// ray enters through.
+#[derive(Clone, Copy)]
+struct Ray {
+    o: [f64; 3],
+    d: [f64; 3],
+    t: f64,
+    idx: [i64; 3],
+    entry: usize,
+}
+
+/// The voxel a ray from `o` along `d` starts in (a coordinate on a voxel boundary goes
+/// to the side the ray moves to).
+fn start_voxel(o: [f64; 3], d: [f64; 3]) -> [i64; 3] {
+    [0, 1, 2].map(|a| {
+        let f = o[a].floor();
+        if o[a] == f && d[a] < 0.0 {
+            f as i64 - 1
+        } else {
+            f as i64
+        }
+    })
+}
+
+/// The ray from the centre of face `face` of the box `[lo, lo + size)` along `d`.
+fn face_ray(lo: [i64; 3], size: i64, face: usize, d: [f64; 3]) -> Ray {
+    let axis = face / 2;
+    let negative = face % 2 == 1;
+    let mut o = [0, 1, 2].map(|a| lo[a] as f64 + 0.5 * size as f64);
+    o[axis] = if negative { lo[axis] as f64 } else { (lo[axis] + size) as f64 };
+    let mut idx = start_voxel(o, d);
+    idx[axis] = if negative { lo[axis] - 1 } else { lo[axis] + size };
+    Ray {
+        o,
+        d,
+        t: 0.0,
+        idx,
+        // The receiver's face `face` touches the next cell's opposite face.
+        entry: face ^ 1,
+    }
+}
+
+/// The ray from the centre of the box along `d`, started where it leaves the box.
+fn centre_ray(lo: [i64; 3], size: i64, d: [f64; 3]) -> Ray {
+    let o = [0, 1, 2].map(|a| lo[a] as f64 + 0.5 * size as f64);
+    let hi = lo.map(|v| v + size);
+    let mut ta = [f64::INFINITY; 3];
+    let mut te = f64::INFINITY;
+    for a in 0..3 {
+        if d[a] > 0.0 {
+            ta[a] = (hi[a] as f64 - o[a]) / d[a];
+        } else if d[a] < 0.0 {
+            ta[a] = (lo[a] as f64 - o[a]) / d[a];
+        }
+        te = te.min(ta[a]);
+    }
+    let step = (0..3).find(|&a| ta[a] == te).unwrap_or(0);
+    let mut idx = [0i64; 3];
+    for a in 0..3 {
+        idx[a] = if a == step {
+            if d[a] > 0.0 { hi[a] } else { lo[a] - 1 }
+        } else {
+            ((o[a] + te * d[a]).floor() as i64).clamp(lo[a], hi[a] - 1)
+        };
+    }
+    let entry = face_index(step, d[step] > 0.0);
+    Ray {
+        o,
+        d,
+        t: te,
+        idx,
+        entry,
+    }
+}
+
+struct Tracer<'a> {
+    scene: &'a ProjectionScene<'a>,
+    emission: &'a Emission<'a>,
+    pyramid: Option<&'a Pyramid>,
+}
+
+impl Tracer<'_> {
+    fn cell_at(&self, idx: [i64; 3]) -> Option<&TraversalCell> {
+        let n = self.scene.side as i64;
+        if idx.iter().any(|&i| i < 0 || i >= n) {
+            return None;
+        }
+        let lin = (idx[0] + n * (idx[1] + n * idx[2])) as usize;
+        Some(&self.scene.cells[self.scene.cell_map[lin] as usize])
+    }
+
+    /// Composites front to back along `ray`; each cell contributes the emission of the
+    /// face the ray enters it through. `footprint` is the pixel's angular width (rad),
+    /// used by the pyramid.
+    fn trace(&self, ray: Ray, footprint: f64) -> Traced {
+        let n = self.scene.side as i64;
+        let Ray {
+            o,
+            d,
+            mut t,
+            mut idx,
+            mut entry,
+        } = ray;
+        let inv = d.map(|x| if x != 0.0 { 1.0 / x } else { f64::INFINITY });
+        let mut radiance = [0.0; 3];
+        let mut trans = 1.0;
+        let mut steps = 0u64;
+        let h = self.scene.voxel;
+        loop {
+            if idx.iter().any(|&i| i < 0 || i >= n) {
+                break;
+            }
+            let lin = (idx[0] + n * (idx[1] + n * idx[2])) as usize;
+            let ci = self.scene.cell_map[lin] as usize;
+            let cell: &TraversalCell = &self.scene.cells[ci];
+            let mut lo = cell.origin.map(i64::from);
+            let mut size = i64::from(cell.size);
+            let mut ext = cell.extinction;
+            let mut coarse: Option<[f64; 3]> = None;
+            if let Some(p) = self.pyramid {
+                let w = t * footprint;
+                if w >= 2.0 {
+                    let l = (w.log2().floor() as usize).min(p.levels.len());
+                    if (1i64 << l) > size {
+                        let lev = &p.levels[l - 1];
+                        let ci = idx.map(|i| (i >> l) as usize);
+                        let li = ci[0] + lev.side * (ci[1] + lev.side * ci[2]);
+                        lo = ci.map(|c| (c as i64) << l);
+                        size = 1 << l;
+                        ext = lev.extinction[li];
+                        coarse = Some(lev.emission[li]);
+                    }
+                }
+            }
+            let hi = lo.map(|v| v + size);
+            let mut te = f64::INFINITY;
+            let mut ta = [f64::INFINITY; 3];
+            for a in 0..3 {
+                if d[a] > 0.0 {
+                    ta[a] = (hi[a] as f64 - o[a]) * inv[a];
+                } else if d[a] < 0.0 {
+                    ta[a] = (lo[a] as f64 - o[a]) * inv[a];
+                }
+                te = te.min(ta[a]);
+            }
+            let len = (te - t).max(0.0);
+            let e = match coarse {
+                Some(e) => e,
+                None => self.emission.coefficients[ci][entry],
+            };
+            steps += 1;
+            if ext > 0.0 {
+                let tr = if ext == f64::INFINITY {
+                    0.0
+                } else {
+                    (-ext * len).exp()
+                };
+                let a = trans * (1.0 - tr);
+                for ch in 0..3 {
+                    radiance[ch] += a * e[ch];
+                }
+                trans *= tr;
+                if trans < MIN_TRANSMITTANCE {
+                    break;
+                }
+            } else {
+                let a = trans * len * h;
+                for ch in 0..3 {
+                    radiance[ch] += a * e[ch];
+                }
+            }
+            // Step across one face only: on an edge or corner the other axes follow
+            // with zero-length chords, so no cell along the edge is skipped.
+            let step = (0..3).find(|&a| ta[a] == te).unwrap_or(0);
+            for a in 0..3 {
+                idx[a] = if a == step {
+                    if d[a] > 0.0 { hi[a] } else { lo[a] - 1 }
+                } else {
+                    ((o[a] + te * d[a]).floor() as i64).clamp(lo[a], hi[a] - 1)
+                };
+            }
+            entry = face_index(step, d[step] > 0.0);
+            t = te;
+        }
+        Traced { radiance, steps }
+    }
+
+    /// Whether any face centre of the box touches an opaque cell (then every entry
+    /// face gets its own ray, so that faces hidden by a touching opaque neighbour see
+    /// it, not the light beyond).
+    fn touches_opaque(&self, lo: [i64; 3], size: i64) -> bool {
+        (0..6).any(|f| {
+            let r = face_ray(lo, size, f, {
+                let mut d = [0.0; 3];
+                d[f / 2] = if f % 2 == 0 { 1.0 } else { -1.0 };
+                d
+            });
+            self.cell_at(r.idx)
+                .is_some_and(|c| c.extinction == f64::INFINITY)
+        })
+    }
+
+    /// Radiance per entry face `k` (of `entries`) along direction `d`.
+    fn radiances(
+        &self,
+        lo: [i64; 3],
+        size: i64,
+        d: [f64; 3],
+        entries: [u8; 3],
+        weights: [f64; 3],
+        per_face: bool,
+        footprint: f64,
+    ) -> ([[f64; 3]; 3], u64) {
+        let mut out = [[0.0; 3]; 3];
+        let mut steps = 0;
+        if per_face {
+            for k in 0..3 {
+                if weights[k] > 0.0 {
+                    let tr = self.trace(face_ray(lo, size, entries[k] as usize, d), footprint);
+                    steps += tr.steps;
+                    out[k] = tr.radiance;
+                }
+            }
+        } else {
+            let tr = self.trace(centre_ray(lo, size, d), footprint);
+            steps += tr.steps;
+            out = [tr.radiance; 3];
+        }
+        (out, steps)
+    }
+
+    fn gather_one(
+        &self,
+        r: &Receiver,
+        map: &CubeMap,
+        collision: Collision,
+        aa: &AntiAlias,
+    ) -> (FaceRgb, u64) {
+        let cell = &self.scene.cells[r.cell as usize];
+        let size = i64::from(cell.size);
+        let lo = cell.origin.map(i64::from);
+        let depth = cell.depth();
+        let per_face = self.touches_opaque(lo, size);
+        let n = map.side;
+        let footprint = 2.0 / n as f64;
+        let mut acc = [[0.0; 3]; 6];
+        let mut norm = 0.0;
+        let mut steps = 0;
+        // Per pixel: the three entry radiances and their weighted mean (for contrast).
+        let mut rad = vec![[[0.0; 3]; 3]; n * n];
+        let mut mean = vec![[0.0; 3]; n * n];
+        let mut weights = vec![[0.0; 3]; n * n];
+        let mut flag = vec![false; n * n];
+        for f in 0..6 {
+            let face = &map.pixels[f * n * n..(f + 1) * n * n];
+            for (k, pix) in face.iter().enumerate() {
+                let w = entry_weights(pix.abs, depth, collision);
+                weights[k] = w;
+                let wt = w[0] + w[1] + w[2];
+                if wt <= 0.0 {
+                    rad[k] = [[0.0; 3]; 3];
+                    mean[k] = [0.0; 3];
+                    continue;
+                }
+                let (l, s) = self.radiances(lo, size, pix.dir, pix.entry, w, per_face, footprint);
+                steps += s;
+                rad[k] = l;
+                mean[k] = [0, 1, 2].map(|c| (w[0] * l[0][c] + w[1] * l[1][c] + w[2] * l[2][c]) / wt);
+            }
+            if aa.subdivisions > 1 {
+                flag.fill(false);
+                for j in 0..n {
+                    for i in 0..n {
+                        let k = i + n * j;
+                        // Right, up, and both diagonals: a silhouette corner inside a
+                        // pixel differs from its diagonal neighbour only.
+                        for (di, dj) in [(1isize, 0isize), (0, 1), (1, 1), (1, -1)] {
+                            let (ii, jj) = (i as isize + di, j as isize + dj);
+                            if ii < 0 || jj < 0 || ii >= n as isize || jj >= n as isize {
+                                continue;
+                            }
+                            let (ii, jj) = (ii as usize, jj as usize);
+                            let q = ii + n * jj;
+                            if aa.contrasts(&mean[k], &mean[q]) {
+                                flag[k] = true;
+                                flag[q] = true;
+                            }
+                        }
+                    }
+                }
+                let s = aa.subdivisions as usize;
+                let axis = f / 2;
+                let sign = if f % 2 == 0 { 1.0 } else { -1.0 };
+                let (ta, tb) = ((axis + 1) % 3, (axis + 2) % 3);
+                let edge = |x: f64| -1.0 + 2.0 * x / n as f64;
+                for j in 0..n {
+                    for i in 0..n {
+                        let k = i + n * j;
+                        if !flag[k] {
+                            continue;
+                        }
+                        // s² sub-samples in a correlated multi-jittered pattern (all
+                        // s² abscissae and ordinates distinct, so an edge along either
+                        // axis is resolved to 1/s² of a pixel), each weighted by the
+                        // gnomonic Jacobian (1 + u² + v²)^(−3/2); the pixel keeps its
+                        // collision weights.
+                        let mut sum = [[0.0; 3]; 3];
+                        let mut wsum = 0.0;
+                        let s2 = (s * s) as f64;
+                        for b in 0..s {
+                            for a in 0..s {
+                                let fu = (a * s + b) as f64 + 0.5;
+                                let fv = (b * s + a) as f64 + 0.5;
+                                let u = edge(i as f64 + fu / s2);
+                                let v = edge(j as f64 + fv / s2);
+                                let r2 = 1.0 + u * u + v * v;
+                                let rr = r2.sqrt();
+                                let w = 1.0 / (r2 * rr);
+                                let mut d = [0.0; 3];
+                                d[axis] = sign / rr;
+                                d[ta] = u / rr;
+                                d[tb] = v / rr;
+                                let (l, st) = self.radiances(
+                                    lo,
+                                    size,
+                                    d,
+                                    face[k].entry,
+                                    weights[k],
+                                    per_face,
+                                    footprint / s as f64,
+                                );
+                                steps += st;
+                                for e in 0..3 {
+                                    for ch in 0..3 {
+                                        sum[e][ch] += w * l[e][ch];
+                                    }
+                                }
+                                wsum += w;
+                            }
+                        }
+                        rad[k] = sum.map(|e| e.map(|x| x / wsum));
+                    }
+                }
+            }
+            for (k, pix) in face.iter().enumerate() {
+                let w = weights[k];
+                let wt = w[0] + w[1] + w[2];
+                if wt <= 0.0 {
+                    continue;
+                }
+                norm += pix.solid_angle * wt;
+                for e in 0..3 {
+                    let fi = pix.entry[e] as usize;
+                    let sw = pix.solid_angle * w[e];
+                    for ch in 0..3 {
+                        acc[fi][ch] += sw * rad[k][e][ch];
+                    }
+                }
+            }
+        }
+        if norm > 0.0 {
+            let edge = size as f64 * self.scene.voxel;
+            let scale = cell.total_weight / norm * edge * edge;
+            for f in &mut acc {
+                for v in f.iter_mut() {
+                    *v *= scale;
+                }
+            }
+        }
+        (acc, steps)
+    }
+}
+
+/// Adaptive supersampling of the framebuffer: a pixel whose radiance differs from one
+/// of its eight neighbours (same frustum) by more than `contrast` relative to the larger of the two
+/// is replaced by the solid-angle-weighted mean of `subdivisions²` sub-pixel rays in a
+/// correlated multi-jittered pattern (deterministic).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct AntiAlias {
+    /// Sub-pixels per side (1 = off).
+    pub subdivisions: u32,
+    /// Relative contrast that triggers supersampling.
+    pub contrast: f64,
+}
+
+impl Default for AntiAlias {
+    /// 8 × 8 sub-pixels where neighbours differ by more than 10 %.
+    fn default() -> Self {
+        Self {
+            subdivisions: 8,
+            contrast: 0.1,
+        }
+    }
+}
+
+impl AntiAlias {
+    /// No supersampling (the paper's one ray per pixel).
+    pub const OFF: Self = Self {
+        subdivisions: 1,
+        contrast: f64::INFINITY,
+    };
+
+    fn contrasts(&self, a: &[f64; 3], b: &[f64; 3]) -> bool {
+        (0..3).any(|c| {
+            let m = a[c].abs().max(b[c].abs());
+            m > 0.0 && (a[c] - b[c]).abs() > self.contrast * m
+        })
+    }
+}
+
+
+impl Projector for CpuProjector {
+    fn name(&self) -> String {
+        match self.projection {
+            Projection::Exact => "cpu-exact".into(),
+            Projection::Pyramid => "cpu-pyramid".into(),
+        }
+    }
+
+    fn gather(
+        &self,
+        scene: &ProjectionScene<'_>,
+        emission: &Emission<'_>,
+        collision: Collision,
+        receivers: &[Receiver],
+        out: &mut [FaceRgb],
+    ) -> Result<GatherStats, VolumeError> {
+        check_inputs(&self.name(), scene, emission, receivers, out.len())?;
+        let pyramid = (self.projection == Projection::Pyramid).then(|| Pyramid::build(scene, emission));
+        let tracer = Tracer {
+            scene,
+            emission,
+            pyramid: pyramid.as_ref(),
+        };
+        let mut sides: Vec<u32> = receivers.iter().map(|r| r.framebuffer).collect();
+        sides.sort_unstable();
+        sides.dedup();
+        let maps: Vec<_> = sides.iter().map(|&s| CubeMap::shared(s as usize)).collect();
+        let map_of = |s: u32| -> &CubeMap {
+            let i = sides.binary_search(&s).unwrap_or(0);
+            &maps[i]
+        };
+        let steps: u64 = out
+            .par_iter_mut()
+            .zip(receivers.par_iter())
+            .with_min_len(8)
+            .map(|(o, r)| {
+                let (acc, s) = tracer.gather_one(r, map_of(r.framebuffer), collision, &self.antialias);
+                *o = acc;
+                s
+            })
+            .sum();
+        let rays = receivers
+            .iter()
+            .map(|r| 6 * u64::from(r.framebuffer) * u64::from(r.framebuffer))
+            .sum();
+        Ok(GatherStats {
+            rays,
+            composited: steps,
+        })
+    }
+
+    fn escape(
+        &self,
+        scene: &ProjectionScene<'_>,
+        emission: &Emission<'_>,
+        framebuffer: u32,
+    ) -> Result<[f64; 3], VolumeError> {
+        check_inputs(&self.name(), scene, emission, &[], 0)?;
+        if framebuffer == 0 || framebuffer as usize > crate::cubemap::MAX_FRAMEBUFFER {
+            return Err(VolumeError::Backend {
+                backend: self.name(),
+                reason: format!("framebuffer {framebuffer} outside 1..=1024"),
+            });
+        }
+        let pyramid = (self.projection == Projection::Pyramid).then(|| Pyramid::build(scene, emission));
+        let tracer = Tracer {
+            scene,
+            emission,
+            pyramid: pyramid.as_ref(),
+        };
+        let map = CubeMap::shared(framebuffer as usize);
+        let n = scene.side;
+        let footprint = 2.0 / framebuffer as f64;
+        let area = scene.voxel * scene.voxel;
+        // One task per boundary face and row; rows summed in order.
+        let rows: Vec<[f64; 3]> = (0..6 * n)
+            .into_par_iter()
+            .map(|task| {
+                let (face, j) = (task / n, task % n);
+                let axis = face / 2;
+                let outward_negative = face % 2 == 1;
+                let (ta, tb) = ((axis + 1) % 3, (axis + 2) % 3);
+                let mut sum = [0.0; 3];
+                for i in 0..n {
+                    let mut lo = [0i64; 3];
+                    lo[axis] = if outward_negative { -1 } else { n as i64 };
+                    lo[ta] = i as i64;
+                    lo[tb] = j as i64;
+                    // The voxel just outside the boundary; its inward face is the square.
+                    let inward_face = face_index(axis, !outward_negative);
+                    for pix in &map.pixels {
+                        let c = if outward_negative { pix.dir[axis] } else { -pix.dir[axis] };
+                        if c <= 0.0 {
+                            continue;
+                        }
+                        let tr = tracer.trace(face_ray(lo, 1, inward_face, pix.dir), footprint);
+                        for ch in 0..3 {
+                            sum[ch] += pix.solid_angle * c * tr.radiance[ch];
+                        }
+                    }
+                }
+                sum
+            })
+            .collect();
+        let mut total = [0.0; 3];
+        for r in rows {
+            for ch in 0..3 {
+                total[ch] += r[ch] * area;
+            }
+        }
+        Ok(total)
+    }
+}

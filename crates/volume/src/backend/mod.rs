@@ -1,0 +1,216 @@
+//! The projection backend (GlobalCube §3.1): the operation that, for every receiving
+//! cell, renders the scene into the cell's global cube and reduces the six
+//! framebuffers to the power the cell collides through each of its faces. It is the
+//! method's whole cost, so it sits behind a trait: [`cpu::CpuProjector`] here, a wgpu
+//! implementation in `wavelux-gpu` later. The data handed to a backend are plain
+//! slices (no wgpu types, no solver state), and [`conformance`] is the test suite
+//! every backend must pass.
+//!
+//! # What a backend computes
+//! Cells are axis-aligned cubes on a dyadic grid of `side³` voxels of edge `voxel`
+//! metres; [`TraversalCell`] gives a cell's box (in voxels), its extinction per voxel
+//! edge `k` (optical depth across one voxel; `∞` opaque, `0` empty) and its total
+//! collision weight `Ĝ` ([`crate::cell::total_weight`] of its optical depth across its
+//! own side). `cell_map` sends every voxel (x fastest) to the cell that contains it.
+//!
+//! For receiver `p` with framebuffer `N`, for every pixel of [`crate::cubemap::CubeMap`]
+//! `N` (direction `ω`, solid angle `ΔΩ`): a ray leaves `p`'s centre along `ω`, skips
+//! `p` itself (no self-interaction, `m_pp = 1`, §3.1) and composites front to back
+//! (the same sum as the paper's back-to-front slices) every cell it crosses, exactly
+//! cell by cell: a chord of length `ℓ` (metres) through cell `q` of extinction
+//! `κ = k/voxel` has opacity `α = 1 − e^{−κℓ}` and adds
+//! `T · α · Σ_s w_s(ω) e[q][s]` (`T` the transmittance so far), where `s` runs over the
+//! three faces the light leaves `q` by towards `p` with the pixel's projected-area
+//! weights `w_s` ([`crate::cubemap::Pixel::exit_weight`]) and `e` is the emission
+//! coefficient (W/(m²·sr)) of [`Emission`]; an empty cell (`k = 0`) with emission adds
+//! `T · ℓ · Σ w_s e[q][s]` (then `e` is in W/(m³·sr)). Rays stop at an opaque cell,
+//! when `T < 1e-13`, or at the grid's black boundary. The pixel's radiance `L` is
+//! collided through `p`'s three entry faces with the weights
+//! [`crate::cell::entry_weights`]`(|ω|, A_p)`, times `ΔΩ`; the six sums are scaled by
+//! `Ĝ_p / Σ_pixels ΔΩ G_p(ω)` (so a uniform radiance is collided exactly) and by the
+//! face area `(side_p · voxel)²`. The result is watts per entry face and channel.
+//!
+//! [`Projector::escape`] measures the power leaving through the grid's boundary:
+//! for every boundary voxel square, the inward hemisphere of a cube map at its centre,
+//! `Σ ΔΩ · L · cos θ · voxel²`.
+
+pub mod conformance;
+pub mod cpu;
+
+use crate::error::VolumeError;
+
+/// RGB power (W) or radiance per face of a cell, faces ordered `+x, −x, +y, −y, +z, −z`.
+pub type FaceRgb = [[f64; 3]; 6];
+
+/// One cell the rays cross: an active leaf of the hierarchy, or an empty octree node
+/// used to skip void space.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TraversalCell {
+    /// Minimum corner, in voxels.
+    pub origin: [u32; 3],
+    /// Edge length in voxels (a power of two).
+    pub size: u32,
+    /// Optical depth across one voxel edge (`∞`: opaque; `0`: empty).
+    pub extinction: f64,
+    /// `Ĝ` of the cell ([`crate::cell::total_weight`] of its depth across its own side,
+    /// in side²·sr); `0` for empty cells.
+    pub total_weight: f64,
+}
+
+impl TraversalCell {
+    /// Optical depth across the cell's own side.
+    #[must_use]
+    pub fn depth(&self) -> f64 {
+        if self.extinction == f64::INFINITY {
+            f64::INFINITY
+        } else {
+            self.extinction * self.size as f64
+        }
+    }
+}
+
+/// The geometry a backend projects: cells and the voxel-to-cell map.
+#[derive(Debug, Clone, Copy)]
+pub struct ProjectionScene<'a> {
+    /// Voxels per axis (a power of two).
+    pub side: usize,
+    /// Voxel edge in metres (scene units).
+    pub voxel: f64,
+    /// The cells.
+    pub cells: &'a [TraversalCell],
+    /// `side³` cell indices, voxel `(x, y, z)` at `x + side (y + side z)`.
+    pub cell_map: &'a [u32],
+}
+
+/// What the cells emit in one gather.
+#[derive(Debug, Clone, Copy)]
+pub struct Emission<'a> {
+    /// Per cell and face the emission coefficient `e[s][channel]` of the module docs
+    /// (W/(m²·sr); W/(m³·sr) for empty cells).
+    pub coefficients: &'a [FaceRgb],
+    /// Per cell the total emitted power (W per channel); used by backends that
+    /// aggregate cells (the pyramid projection).
+    pub power: &'a [[f64; 3]],
+}
+
+/// A receiving cell and the side of its framebuffer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Receiver {
+    /// Index into [`ProjectionScene::cells`].
+    pub cell: u32,
+    /// Framebuffer side `N` (1..=1024).
+    pub framebuffer: u32,
+}
+
+/// Work done by one call (for throughput reports).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct GatherStats {
+    /// Rays (pixels) traced.
+    pub rays: u64,
+    /// Cells composited (ray–cell chords).
+    pub composited: u64,
+}
+
+impl std::ops::AddAssign for GatherStats {
+    fn add_assign(&mut self, o: Self) {
+        self.rays += o.rays;
+        self.composited += o.composited;
+    }
+}
+
+/// A projection backend. Implementations must be deterministic: the same inputs give
+/// bitwise the same outputs whatever the thread count.
+pub trait Projector: Sync {
+    /// Short name for reports (`cpu-exact`, `cpu-pyramid`, `wgpu` ...).
+    fn name(&self) -> String;
+
+    /// For every receiver, the power (W) collided through each entry face and channel,
+    /// written to `out[i]` (same order as `receivers`).
+    ///
+    /// # Errors
+    /// Inconsistent slices (lengths, indices out of range) or a framebuffer outside
+    /// `1..=1024`, as [`VolumeError::Backend`].
+    fn gather(
+        &self,
+        scene: &ProjectionScene<'_>,
+        emission: &Emission<'_>,
+        collision: crate::cell::Collision,
+        receivers: &[Receiver],
+        out: &mut [FaceRgb],
+    ) -> Result<GatherStats, VolumeError>;
+
+    /// Power (W per channel) leaving through the grid's boundary, seen from every
+    /// boundary voxel square through the inward half of a framebuffer of side
+    /// `framebuffer`.
+    ///
+    /// # Errors
+    /// As [`Projector::gather`].
+    fn escape(
+        &self,
+        scene: &ProjectionScene<'_>,
+        emission: &Emission<'_>,
+        framebuffer: u32,
+    ) -> Result<[f64; 3], VolumeError>;
+}
+
+/// Checks the slices of a call (shared by the backends).
+///
+/// # Errors
+/// [`VolumeError::Backend`] naming the first inconsistency.
+pub fn check_inputs(
+    backend: &str,
+    scene: &ProjectionScene<'_>,
+    emission: &Emission<'_>,
+    receivers: &[Receiver],
+    out_len: usize,
+) -> Result<(), VolumeError> {
+    let fail = |reason: String| {
+        Err(VolumeError::Backend {
+            backend: backend.into(),
+            reason,
+        })
+    };
+    let n = scene.side;
+    if !(n.is_power_of_two() && scene.voxel.is_finite() && scene.voxel > 0.0) {
+        return fail(format!("side {n} / voxel {} invalid", scene.voxel));
+    }
+    if scene.cell_map.len() != n * n * n {
+        return fail(format!(
+            "cell map has {} entries, expected {}",
+            scene.cell_map.len(),
+            n * n * n
+        ));
+    }
+    let nc = scene.cells.len();
+    if emission.coefficients.len() != nc || emission.power.len() != nc {
+        return fail(format!(
+            "{} cells but {} emission coefficients and {} powers",
+            nc,
+            emission.coefficients.len(),
+            emission.power.len()
+        ));
+    }
+    if scene.cell_map.iter().any(|&c| c as usize >= nc) {
+        return fail("cell map refers past the cell list".into());
+    }
+    if out_len != receivers.len() {
+        return fail(format!(
+            "{} receivers but an output of {}",
+            receivers.len(),
+            out_len
+        ));
+    }
+    for r in receivers {
+        if r.cell as usize >= nc {
+            return fail(format!("receiver cell {} out of range", r.cell));
+        }
+        if r.framebuffer == 0 || r.framebuffer as usize > crate::cubemap::MAX_FRAMEBUFFER {
+            return fail(format!(
+                "framebuffer {} outside 1..={}",
+                r.framebuffer,
+                crate::cubemap::MAX_FRAMEBUFFER
+            ));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,81 @@
+//! wavelux-volume: volume radiosity with the hierarchical Global Cube (Hubeli,
+//! Lippert, Gross; "GlobalCube" §2–§5).
+//!
+//! # The model
+//! The paper states its model loosely; this crate implements the following, and every
+//! test and reproduction refers to it.
+//!
+//! * **Cells.** A cell is a homogeneous cube of side `h`: opacity `σ = 1 − e^{−A}`
+//!   across one side (optical depth `A`, extinction `A/h`), scattering albedo `ω`
+//!   (RGB), source `χᵗ` (W/m³, RGB: power leaving the cell per unit volume). A cell
+//!   does not interact with itself (`m_pp = 1`, §3.1). `σ = 1` is an opaque
+//!   Lambertian box of reflectance `ω` (§2.1: surfaces as thin volumes). Outside the
+//!   grid is a black boundary.
+//! * **Unknowns.** Per active cell, face and channel the outgoing power `Chi[p][side]`
+//!   (§3.2's pseudocode); a source puts `χᵗ h³/6` on every face.
+//! * **Gathering** (§3.1, Fig. 3). A receiver gathers through a cube map at its centre:
+//!   six 90° frusta of `N × N` pixels ([`cubemap`]). Each pixel's ray composites the
+//!   cells it crosses front to back (the paper's back-to-front slices give the same
+//!   sum), exactly chord by chord: a chord `ℓ` has opacity `1 − (1 − σ)^{ℓ/h}`. The
+//!   tables of §3.2: each pixel's exact solid angle (the distance correction, eq.
+//!   (29)), and the receiver's collision weights per entry face (the directional and
+//!   positional corrections, eq. (30), Fig. 6) — see below.
+//! * **Senders.** A sender contributes `S(ω) · α(ω)` (colour × opacity): `α` is the
+//!   chord's opacity, `S(ω)` the projected-area mean of the faces `ω` leaves by, of the
+//!   face coefficients `e_s = 6 Chi_s / (Ĝ h²)`, normalised so that the cell emits
+//!   exactly `Σ Chi` over all directions. So opaque cells are non-leaking Lambertian
+//!   boxes (intensity `P Σ|ω_i| / 6π`: `P/6π` on an axis), thin cells isotropic
+//!   emitters (`P/4π`), and a uniform radiance field is reproduced exactly.
+//! * **Receivers** collide what the same opacities remove (eq. (31)), credited to
+//!   their entry faces: the exact opacity-weighted projected area of a homogeneous
+//!   cube per entry face, `G_i(ω)` ([`cell`]), integrated to `Ĝ` over all directions;
+//!   the pixel weights are scaled so that they sum to `Ĝ` exactly. The paper's plain
+//!   `σ` weight is [`cell::Collision::Plain`].
+//! * **Routing** (Γ, eq. (32)). The scattered power `ω C_i` collided through face `i`
+//!   leaves through face `j` with `Γ_ij = (1 − σ) F_ij` (`F`: the cube's interior face
+//!   form factors, opposite 0.19982, adjacent 0.20004). As printed, `Γ_ii = 1`, so a
+//!   row sums to `2 − σ` and creates energy, against the paper's own claim that the
+//!   form factors guarantee no energy is introduced; the default is `Γ_ii = σ` (rows
+//!   sum to 1: an opaque cell reflects through the face it was lit on, a clear one
+//!   passes light to the other faces). The printed form is
+//!   [`cell::GammaMode::Printed`].
+//!
+//! # Hierarchy
+//! The non-standard 3D Haar decomposition (seven wavelet types, eqs. (25)–(27)) of
+//! `χᵗ` and σ by `wavelux_mra::tensor`, with `M = m0 + L` ([`hierarchy`]; thresholds
+//! in the paper's averaging units); active cells are octree leaves of mixed level
+//! ([`active`]); the framebuffer side follows the level (the paper's 16², 32², 64² for
+//! the 16³, 32³, 64³ levels), capped. The solve loop with the static and dynamic
+//! oracles and eqs. (33)–(34) is [`solve`]; the relaxations (Jacobi eq. (28),
+//! Gauss–Seidel, GMRES) are in [`system`].
+//!
+//! # Backends
+//! The projection is the [`backend::Projector`] trait with the CPU implementation
+//! [`backend::cpu::CpuProjector`] (modes `exact` and `pyramid`) and a conformance
+//! suite ([`backend::conformance`]) for every backend (wgpu comes later).
+//!
+//! # Deviations from the paper (see also `docs/architecture.md`)
+//! Exact chords instead of point-sampled slices; exact collision weights instead of
+//! the plain `σ` weight (optional); `Γ_ii = σ` instead of 1 (optional); eq. (33)'s
+//! undefined `χ^f` read as `χᵗ`; the pseudocode's `Chi += …` read as `=`.
+
+pub mod active;
+pub mod backend;
+pub mod cell;
+pub mod cubemap;
+pub mod error;
+pub mod grid;
+pub mod hierarchy;
+pub mod solution;
+pub mod solve;
+pub mod system;
+
+pub use backend::cpu::{CpuProjector, Projection};
+pub use backend::{Projector, TraversalCell};
+pub use cell::{Collision, GammaMode};
+pub use error::VolumeError;
+pub use grid::VolumeGrid;
+pub use hierarchy::CoarseOpacity;
+pub use solution::{VolumeSolution, q_square, rms};
+pub use solve::{GlobalCubeConfig, Oracle, Relaxation, StepRecord, Threshold, solve};
+pub use system::Energy;
