@@ -15,7 +15,8 @@
 //!   I/O, error metrics and false-colour error maps; every file is written through a
 //!   temporary file and an atomic rename;
 //! - [`reference`]: a Monte Carlo path tracer for diffuse scenes (the ground truth for
-//!   scenes without closed forms);
+//!   scenes without closed forms), and [`reference::volume`], a particle tracer for
+//!   voxel media (the ground truth of the volume method);
 //! - [`export`]: glTF export with baked per-vertex radiosity and per-patch lightmaps.
 //!
 //! # Units

@@ -37,6 +37,8 @@
 //! the solver uses); a Ward lobe is ignored (diffuse transport only); directional
 //! (cosine-power) emitters are rejected; participating media are ignored.
 
+pub mod volume;
+
 use glam::DVec3;
 use rand::RngExt;
 use rand_pcg::Pcg64;

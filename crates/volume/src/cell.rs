@@ -119,6 +119,36 @@ pub fn entry_weights(d: [f64; 3], a: f64, mode: Collision) -> [f64; 3] {
     }
 }
 
+/// Probability that light born uniformly and isotropically inside a cell of optical
+/// depth `a` per side collides in the same cell before leaving it:
+/// `1 − Ĝ(a)/(4π a)` (`Ĝ/(4πa)` is the mean escape probability `⟨e^{−a s}⟩`).
+/// Zero for empty and for opaque cells (an opaque cell is a surface: what it reflects
+/// leaves it).
+#[must_use]
+pub fn self_collision(a: f64) -> f64 {
+    if a <= 0.0 || a == f64::INFINITY {
+        return 0.0;
+    }
+    if a < 1e-9 {
+        // Ĝ/(4πa) = 1 − O(a): the series' first term.
+        return 0.0;
+    }
+    (1.0 - total_weight(a, Collision::Exact) / (4.0 * PI * a)).clamp(0.0, 1.0)
+}
+
+/// How a cell's own scattered light is treated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SelfInteraction {
+    /// The fraction [`self_collision`] of the light a cell scatters collides in the
+    /// cell again (a geometric series per cell: collided `C/(1 − ω p)`, leaving
+    /// `ω (1 − p)` of it); light from sources leaves without (default).
+    #[default]
+    Uniform,
+    /// None: `m_pp = 1` for scattered light too (GlobalCube §3.1 as printed).
+    None,
+}
+
 /// `σ = 1 − e^{−a}` (exact at both ends: `a = 0 → 0`, `a = ∞ → 1`).
 #[must_use]
 pub fn sigma_of(a: f64) -> f64 {

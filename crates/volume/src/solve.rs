@@ -22,7 +22,7 @@ use std::time::Instant;
 use crate::active::{ActiveSet, Origin, WeightCache};
 use crate::backend::{FaceRgb, Projector};
 use crate::backend::cpu::Projection;
-use crate::cell::{Collision, GammaMode};
+use crate::cell::{Collision, GammaMode, SelfInteraction};
 use crate::error::{VolumeError, config};
 use crate::grid::VolumeGrid;
 use crate::hierarchy::{CoarseOpacity, Hierarchy};
@@ -123,6 +123,8 @@ pub struct GlobalCubeConfig {
     pub max_steps: usize,
     /// Framebuffer of the escape measurement (default 8).
     pub escape_framebuffer: usize,
+    /// Self-interaction of scattered light (default uniform).
+    pub self_interaction: SelfInteraction,
 }
 
 impl Default for GlobalCubeConfig {
@@ -144,6 +146,7 @@ impl Default for GlobalCubeConfig {
             coarse_opacity: CoarseOpacity::Average,
             max_steps: 16,
             escape_framebuffer: 8,
+            self_interaction: SelfInteraction::Uniform,
         }
     }
 }
@@ -235,6 +238,7 @@ pub fn solve(
         gamma: cfg.gamma,
         framebuffer: cfg.framebuffer,
         escape_framebuffer: cfg.escape_framebuffer,
+        self_interaction: cfg.self_interaction,
     };
     let mut cache = WeightCache::default();
     let mut work = Work::default();

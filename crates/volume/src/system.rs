@@ -13,14 +13,18 @@
 //! it emits exactly `Σ_s Chi_s` (the projected-area mean of the faces a direction
 //! leaves by averages `e` to `Σ e_s/6` over the sphere); an empty-opacity cell emits
 //! its source as a thin emitter, `e_s = 6 Chi_s/(4π V)` per unit length.
-//! Scattering: receiver `p` collides `C_p[i]` through entry face `i` (backend docs);
-//! `Chi_p[j] = χᵗV/6 + Σ_i Γ_p[i][j] ω_p C_p[i]`.
+//! Scattering: receiver `p` collides `C_p[i]` through entry face `i` from the other
+//! cells (backend docs); with the self-interaction of [`SelfInteraction::Uniform`] a
+//! fraction `π_p` (the self-collision probability of light born uniformly in the
+//! cell) of what it scatters collides in it again, so it collides `C_p/(1 − ω π_p)` in
+//! total and `Chi_p[j] = χᵗV/6 + Σ_i Γ_p[i][j] ω_p (1 − π_p) C_p[i]/(1 − ω_p π_p)`
+//! (energy is conserved: absorbed + scattered out = collided from outside).
 
 use std::time::Instant;
 
 use crate::active::{ActiveSet, LeafData, Traversal, WeightCache};
 use crate::backend::{Emission, FaceRgb, GatherStats, ProjectionScene, Projector, Receiver};
-use crate::cell::{Collision, GammaMode, gamma};
+use crate::cell::{Collision, GammaMode, SelfInteraction, depth_of, gamma, self_collision};
 use crate::error::VolumeError;
 use crate::hierarchy::Hierarchy;
 
@@ -36,6 +40,8 @@ pub struct SystemSettings {
     pub framebuffer: usize,
     /// Framebuffer of the boundary (escape) measurement.
     pub escape_framebuffer: usize,
+    /// Self-interaction of scattered light.
+    pub self_interaction: SelfInteraction,
 }
 
 impl Default for SystemSettings {
@@ -45,6 +51,7 @@ impl Default for SystemSettings {
             gamma: GammaMode::Normalized,
             framebuffer: 32,
             escape_framebuffer: 8,
+            self_interaction: SelfInteraction::Uniform,
         }
     }
 }
@@ -97,6 +104,8 @@ pub struct System<'a> {
     pub receiver_of: Vec<Option<usize>>,
     /// Per leaf: source power per face and channel.
     pub sources: Vec<FaceRgb>,
+    /// Per leaf: the self-collision probability of its scattered light.
+    pub self_collision: Vec<f64>,
 }
 
 /// Work and time of applications of `K`.
@@ -152,6 +161,14 @@ impl<'a> System<'a> {
             }
             sources.push(f);
         }
+        let self_collision = data
+            .opacity
+            .iter()
+            .map(|&o| match settings.self_interaction {
+                SelfInteraction::Uniform => self_collision(depth_of(o)),
+                SelfInteraction::None => 0.0,
+            })
+            .collect();
         Self {
             projector,
             settings,
@@ -163,6 +180,7 @@ impl<'a> System<'a> {
             receivers,
             receiver_of,
             sources,
+            self_collision,
         }
     }
 
@@ -237,6 +255,7 @@ impl<'a> System<'a> {
         work: &mut Work,
     ) -> Result<Vec<FaceRgb>, VolumeError> {
         let mut out = vec![[[0.0; 3]; 6]; range.len()];
+        let first = range.start;
         let t = Instant::now();
         let stats = self.projector.gather(
             &self.scene(),
@@ -250,7 +269,25 @@ impl<'a> System<'a> {
         )?;
         work.gather += stats;
         work.projector_seconds += t.elapsed().as_secs_f64();
+        for (k, c) in out.iter_mut().enumerate() {
+            self.to_total(self.receivers[first + k].cell as usize, c);
+        }
         Ok(out)
+    }
+
+    /// Turns the power collided from other cells into the total the cell collides,
+    /// its own re-collisions included: `C / (1 − ω p)`.
+    fn to_total(&self, leaf: usize, c: &mut FaceRgb) {
+        let p = self.self_collision[leaf];
+        if p == 0.0 {
+            return;
+        }
+        let alb = self.data.albedo[leaf];
+        for f in c.iter_mut() {
+            for ch in 0..3 {
+                f[ch] /= 1.0 - alb[ch] * p;
+            }
+        }
     }
 
     /// Collided power (W per entry face and channel) of the given leaves with face
@@ -278,6 +315,9 @@ impl<'a> System<'a> {
         )?;
         work.gather += stats;
         work.projector_seconds += t.elapsed().as_secs_f64();
+        for (c, r) in out.iter_mut().zip(&recv) {
+            self.to_total(r.cell as usize, c);
+        }
         let mut it = out.into_iter();
         Ok(leaves
             .iter()
@@ -291,11 +331,13 @@ impl<'a> System<'a> {
             .collect())
     }
 
-    /// Routes receiver `r`'s collided power to its faces: `Σ_i Γ[i][j] ω C[i]`.
+    /// Routes receiver `r`'s (total) collided power to its faces:
+    /// `Σ_i Γ[i][j] ω (1 − p) C[i]` (what is scattered and not re-collided).
     fn scatter(&self, r: usize, collided: &FaceRgb) -> FaceRgb {
         let i = self.receivers[r].cell as usize;
         let g = gamma(self.data.opacity[i], self.settings.gamma);
-        let alb = self.data.albedo[i];
+        let p = self.self_collision[i];
+        let alb = self.data.albedo[i].map(|w| w * (1.0 - p));
         let mut out = [[0.0; 3]; 6];
         for (fi, row) in g.iter().enumerate() {
             for (fj, &gij) in row.iter().enumerate() {

@@ -1,7 +1,8 @@
 //! Furnace ground truth (issue 14 §6): inside an isothermal opaque shell (black,
 //! emitting radiance `L0` from every face), a medium of random opacity with uniform
-//! albedo ω and sources `(1 − ω) ×` its collision rate in the uniform field has the
-//! exact solution "uniform radiance `L0` everywhere". The model reproduces it to the
+//! albedo ω and sources `(1 − ω) ×` its collision rate in the uniform field (the
+//! model's: `L0 Ĝ h² / (1 − ω π)` with self-collisions) has the exact solution
+//! "uniform radiance `L0` everywhere". The model reproduces it to the
 //! solver tolerance (its gather is exact for uniform fields); Γ as printed creates
 //! energy and must fail (the gain is reported). Also: an opaque wall does not leak,
 //! and results do not depend on the thread count.
@@ -12,7 +13,7 @@ use common::{EMPTY, Vox, grid};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 use wavelux_volume::backend::cpu::AntiAlias;
-use wavelux_volume::cell::{Collision, depth_of, total_weight};
+use wavelux_volume::cell::{Collision, depth_of, self_collision, total_weight};
 use wavelux_volume::{
     CpuProjector, GammaMode, GlobalCubeConfig, Projection, Relaxation, VolumeGrid, VolumeSolution,
     solve,
@@ -69,7 +70,9 @@ fn furnace(n: usize, w: f64, seed: u64) -> VolumeGrid {
             .count();
             L0 * pi * exposed as f64 * H * H
         } else {
-            L0 * total_weight(depth_of(s), Collision::Exact) * H * H
+            // Collided from outside L0 Ĝ h², re-collided in the cell: ÷ (1 − ω π).
+            let a = depth_of(s);
+            L0 * total_weight(a, Collision::Exact) * H * H / (1.0 - w * self_collision(a))
         };
         let alb = if shell { 0.0 } else { w };
         let chi = (1.0 - alb) * rate / H.powi(3);

@@ -14,6 +14,7 @@ pub use wavelux_render as render;
 pub use wavelux_scene as scene;
 pub use wavelux_solver as solver;
 pub use wavelux_support as support;
+pub use wavelux_volume as volume;
 
 /// The member crates, their one-line job, in dependency order (lowest first).
 pub const CRATES: &[(&str, &str)] = &[
@@ -56,6 +57,10 @@ pub const CRATES: &[(&str, &str)] = &[
     (
         "wavelux-glossy",
         "glossy radiance: 4D Haar wavelets, exitant importance, Ward BRDF, final gather",
+    ),
+    (
+        "wavelux-volume",
+        "volume radiosity with the hierarchical Global Cube",
     ),
     (
         "wavelux-render",

@@ -535,11 +535,12 @@ pub struct AntiAlias {
 }
 
 impl Default for AntiAlias {
-    /// 8 × 8 sub-pixels where neighbours differ by more than 10 %.
+    /// 8 × 8 sub-pixels where neighbours differ by more than 50 % (silhouettes of
+    /// bright or dark objects, not the gentle gradients of a medium).
     fn default() -> Self {
         Self {
             subdivisions: 8,
-            contrast: 0.1,
+            contrast: 0.5,
         }
     }
 }
