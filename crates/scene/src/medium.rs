@@ -211,6 +211,8 @@ pub fn read_raw_grid(
     Ok(if channels == 1 {
         vals.into_iter().map(Rgb::grey).collect()
     } else {
-        vals.chunks_exact(3).map(|c| Rgb::new(c[0], c[1], c[2])).collect()
+        vals.chunks_exact(3)
+            .map(|c| Rgb::new(c[0], c[1], c[2]))
+            .collect()
     })
 }

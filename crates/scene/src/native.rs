@@ -651,9 +651,10 @@ fn grid(
                 (Some(c), None, None) if t.channels.is_none() => vec![Rgb(*c); n],
                 (None, Some(v), None) => match channels {
                     1 => v.iter().map(|&x| Rgb::grey(x)).collect(),
-                    3 if v.len() % 3 == 0 => {
-                        v.chunks_exact(3).map(|c| Rgb::new(c[0], c[1], c[2])).collect()
-                    }
+                    3 if v.len() % 3 == 0 => v
+                        .chunks_exact(3)
+                        .map(|c| Rgb::new(c[0], c[1], c[2]))
+                        .collect(),
                     _ => {
                         return Err(malformed(format!(
                             "{} values with channels = {channels} (1 or 3, and a multiple of it)",

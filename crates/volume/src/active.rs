@@ -50,7 +50,11 @@ impl Leaf {
     /// `[z, y, x]` index into the level's arrays.
     #[must_use]
     pub fn zyx(&self) -> [usize; 3] {
-        [self.pos[2] as usize, self.pos[1] as usize, self.pos[0] as usize]
+        [
+            self.pos[2] as usize,
+            self.pos[1] as usize,
+            self.pos[0] as usize,
+        ]
     }
 }
 
@@ -200,7 +204,12 @@ impl Traversal {
     /// Builds the cells and the map for `set` with per-leaf `data`. Octree nodes made
     /// only of empty leaves (σ = 0, no source) become single cells.
     #[must_use]
-    pub fn new(set: &ActiveSet, data: &LeafData, collision: Collision, cache: &mut WeightCache) -> Self {
+    pub fn new(
+        set: &ActiveSet,
+        data: &LeafData,
+        collision: Collision,
+        cache: &mut WeightCache,
+    ) -> Self {
         let n = set.side;
         let mut cells = Vec::with_capacity(set.leaves.len());
         for (i, l) in set.leaves.iter().enumerate() {
@@ -314,7 +323,13 @@ mod tests {
         split[3] = true;
         let (r, o) = s.refine(&split);
         assert_eq!(r.leaves.len(), 15);
-        assert_eq!(o[3], Origin::Child { parent: 3, octant: 0 });
+        assert_eq!(
+            o[3],
+            Origin::Child {
+                parent: 3,
+                octant: 0
+            }
+        );
         assert_eq!(o[11], Origin::Kept(4));
         let vol: u32 = r.leaves.iter().map(|l| l.size().pow(3)).sum();
         assert_eq!(vol, 512);

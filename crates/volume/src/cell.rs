@@ -323,7 +323,10 @@ mod tests {
         for k in 0..3 {
             for &x in &[1e-12, 1e-6, 0.01, 0.5, 1.0, 5.0, 29.9, 30.1, 60.0] {
                 let (a, b) = (q_k(k, x), q_ref(k, x));
-                assert!((a - b).abs() <= 1e-13 * b.abs().max(1e-300), "k {k} x {x}: {a} vs {b}");
+                assert!(
+                    (a - b).abs() <= 1e-13 * b.abs().max(1e-300),
+                    "k {k} x {x}: {a} vs {b}"
+                );
             }
         }
     }
@@ -362,7 +365,12 @@ mod tests {
             let e = entry_weights(d, a, Collision::Exact);
             let b = g_brute(d, a);
             for i in 0..3 {
-                assert!((e[i] - b[i]).abs() < 2e-4, "a {a} face {i}: {} vs {}", e[i], b[i]);
+                assert!(
+                    (e[i] - b[i]).abs() < 2e-4,
+                    "a {a} face {i}: {} vs {}",
+                    e[i],
+                    b[i]
+                );
             }
         }
     }

@@ -41,7 +41,9 @@ pub enum VolumeError {
         what: String,
     },
     /// Voxels must be cubes (the Global Cube projects onto the six faces of a cube).
-    #[error("medium {medium:?}: voxels are {size:?} (scene units), not cubes (relative tolerance 1e-9)")]
+    #[error(
+        "medium {medium:?}: voxels are {size:?} (scene units), not cubes (relative tolerance 1e-9)"
+    )]
     NonCubicVoxels {
         /// The medium.
         medium: String,
@@ -49,7 +51,9 @@ pub enum VolumeError {
         size: [f64; 3],
     },
     /// More hierarchy levels than the padded grid has.
-    #[error("medium {medium:?}: {levels} levels requested but the padded grid of side {side} has at most {max} (log2 of the side)")]
+    #[error(
+        "medium {medium:?}: {levels} levels requested but the padded grid of side {side} has at most {max} (log2 of the side)"
+    )]
     Levels {
         /// The medium.
         medium: String,

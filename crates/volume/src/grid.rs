@@ -121,18 +121,22 @@ impl VolumeGrid {
             check(what, g, &|v| (0.0..1.0).contains(&v), "[0, 1)")?;
         }
         let extent = [dim.2, dim.1, dim.0];
-        let side = extent.iter().copied().max().unwrap_or(1).next_power_of_two();
+        let side = extent
+            .iter()
+            .copied()
+            .max()
+            .unwrap_or(1)
+            .next_power_of_two();
         if side > MAX_SIDE {
-            return Err(shape_err(format!(
-                "padded side {side} exceeds {MAX_SIDE}"
-            )));
+            return Err(shape_err(format!("padded side {side} exceeds {MAX_SIDE}")));
         }
         let pad = |g: Array3<f64>| -> Array3<f64> {
             if g.dim() == (side, side, side) {
                 return g;
             }
             let mut p = Array3::zeros((side, side, side));
-            p.slice_mut(ndarray::s![..dim.0, ..dim.1, ..dim.2]).assign(&g);
+            p.slice_mut(ndarray::s![..dim.0, ..dim.1, ..dim.2])
+                .assign(&g);
             p
         };
         let [s0, s1, s2] = source;

@@ -114,7 +114,11 @@ impl Hierarchy {
     ///
     /// # Errors
     /// [`VolumeError::Levels`] when `levels > log2(side)`.
-    pub fn new(grid: &VolumeGrid, levels: usize, coarse: CoarseOpacity) -> Result<Self, VolumeError> {
+    pub fn new(
+        grid: &VolumeGrid,
+        levels: usize,
+        coarse: CoarseOpacity,
+    ) -> Result<Self, VolumeError> {
         let n = grid.side;
         let max = n.trailing_zeros() as usize;
         if levels > max {
@@ -200,7 +204,8 @@ mod tests {
 
     fn grid(n: usize, f: impl Fn(usize, usize, usize) -> f64) -> VolumeGrid {
         let op = Array3::from_shape_fn((n, n, n), |(z, y, x)| f(x, y, z));
-        let src = [0, 1, 2].map(|c| Array3::from_shape_fn((n, n, n), |(z, y, x)| (c + 1) as f64 * f(y, z, x)));
+        let src = [0, 1, 2]
+            .map(|c| Array3::from_shape_fn((n, n, n), |(z, y, x)| (c + 1) as f64 * f(y, z, x)));
         let alb = [0, 1, 2].map(|_| Array3::from_elem((n, n, n), 0.5));
         VolumeGrid::new("t", 1.0, DVec3::ZERO, op, src, alb).unwrap()
     }
@@ -208,7 +213,13 @@ mod tests {
     #[test]
     fn converted_details_are_child_deviations() {
         // One cell's children: the x-type detail is (mean of x=1 − mean of x=0)/2.
-        let g = grid(4, |x, y, z| if x % 2 == 1 && y < 2 && z < 2 { 0.8 } else { 0.0 });
+        let g = grid(4, |x, y, z| {
+            if x % 2 == 1 && y < 2 && z < 2 {
+                0.8
+            } else {
+                0.0
+            }
+        });
         let h = Hierarchy::new(&g, 2, CoarseOpacity::Average).unwrap();
         // Cell (0,0,0) at level 1: children x=1 are 0.8, x=0 are 0: mean 0.4, the x-type
         // detail amplitude 0.4 (children = 0.4 ± 0.4).
@@ -217,9 +228,9 @@ mod tests {
         // Other level-1 cells are uniform zero.
         assert_eq!(h.max_detail_opacity[1][[1, 1, 1]], 0.0);
         // Level 2 sees the level-1 detail inside it and its own (the level-1 means are
-        // 0.4, 0, ... so the level-2 detail amplitude is 0.05).
+        // 0.4, 0.4, 0, ... so the level-2 mean is 0.1).
         assert!((h.max_detail_opacity[2][[0, 0, 0]] - 0.4).abs() < 1e-12);
-        assert!((h.opacity[2][[0, 0, 0]] - 0.05).abs() < 1e-12);
+        assert!((h.opacity[2][[0, 0, 0]] - 0.1).abs() < 1e-12);
     }
 
     #[test]

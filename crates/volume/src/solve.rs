@@ -20,8 +20,8 @@
 use std::time::Instant;
 
 use crate::active::{ActiveSet, Origin, WeightCache};
-use crate::backend::{FaceRgb, Projector};
 use crate::backend::cpu::Projection;
+use crate::backend::{FaceRgb, Projector};
 use crate::cell::{Collision, GammaMode, SelfInteraction};
 use crate::error::{VolumeError, config};
 use crate::grid::VolumeGrid;
@@ -172,7 +172,8 @@ impl GlobalCubeConfig {
                 format!("{} outside 1..=1024", self.framebuffer),
             ));
         }
-        if self.escape_framebuffer == 0 || self.escape_framebuffer > crate::cubemap::MAX_FRAMEBUFFER {
+        if self.escape_framebuffer == 0 || self.escape_framebuffer > crate::cubemap::MAX_FRAMEBUFFER
+        {
             return Err(config(
                 "escape framebuffer",
                 format!("{} outside 1..=1024", self.escape_framebuffer),
@@ -182,7 +183,10 @@ impl GlobalCubeConfig {
         self.threshold_source.check("threshold-source")?;
         self.threshold_chi.check("threshold-chi")?;
         if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
-            return Err(config("tolerance", format!("{} must be finite and > 0", self.tolerance)));
+            return Err(config(
+                "tolerance",
+                format!("{} must be finite and > 0", self.tolerance),
+            ));
         }
         if self.relaxations == 0 {
             return Err(config("relaxations", "must be >= 1"));
@@ -270,7 +274,9 @@ pub fn solve(
     let range = |a: &ndarray::Array3<f64>| {
         let (lo, hi) = a
             .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| (l.min(v), h.max(v)));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
         (hi - lo).max(0.0)
     };
     let thr_opacity = cfg.threshold_opacity.resolve(range(&grid.opacity));
@@ -293,7 +299,9 @@ pub fn solve(
             }
             let s = match cfg.oracle {
                 Oracle::None => true,
-                Oracle::Static | Oracle::Both => static_oracle(&hierarchy, leaf, thr_opacity, thr_source),
+                Oracle::Static | Oracle::Both => {
+                    static_oracle(&hierarchy, leaf, thr_opacity, thr_source)
+                }
                 Oracle::Dynamic => false,
             };
             let d = !s
@@ -382,7 +390,12 @@ pub fn solve(
     ))
 }
 
-fn static_oracle(h: &Hierarchy, leaf: &crate::active::Leaf, thr_opacity: f64, thr_source: f64) -> bool {
+fn static_oracle(
+    h: &Hierarchy,
+    leaf: &crate::active::Leaf,
+    thr_opacity: f64,
+    thr_source: f64,
+) -> bool {
     let (l, i) = (leaf.level as usize, leaf.zyx());
     h.max_detail_opacity[l][i] >= thr_opacity || h.max_detail_source[l][i] >= thr_source
 }
@@ -391,7 +404,9 @@ fn dynamic_oracle(chi: &FaceRgb, thr: f64) -> bool {
     for c in 0..3 {
         let (lo, hi) = chi
             .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), f| (l.min(f[c]), h.max(f[c])));
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), f| {
+                (l.min(f[c]), h.max(f[c]))
+            });
         if hi - lo >= thr {
             return true;
         }
@@ -458,7 +473,12 @@ fn solve_to_tolerance(
 
 /// Face powers of a refined set from the previous one: kept leaves keep theirs;
 /// children by GlobalCube eqs. (33)–(34) (quarter of the parent face).
-fn initialise(old: &System<'_>, new: &System<'_>, origin: &[Origin], chi: &[FaceRgb]) -> Vec<FaceRgb> {
+fn initialise(
+    old: &System<'_>,
+    new: &System<'_>,
+    origin: &[Origin],
+    chi: &[FaceRgb],
+) -> Vec<FaceRgb> {
     let mut out = Vec::with_capacity(origin.len());
     for (i, o) in origin.iter().enumerate() {
         match *o {

@@ -217,7 +217,11 @@ impl<'a> System<'a> {
         let edge = f64::from(leaf.size()) * self.voxel;
         let g = self.traversal.cells[i].total_weight;
         let scale = if self.data.opacity[i] > 0.0 {
-            if g > 0.0 { 6.0 / (g * edge * edge) } else { 0.0 }
+            if g > 0.0 {
+                6.0 / (g * edge * edge)
+            } else {
+                0.0
+            }
         } else {
             6.0 / (4.0 * std::f64::consts::PI * edge * edge * edge)
         };
@@ -295,11 +299,22 @@ impl<'a> System<'a> {
     ///
     /// # Errors
     /// Backend errors.
-    pub fn collide(&self, chi: &[FaceRgb], leaves: &[usize], work: &mut Work) -> Result<Vec<FaceRgb>, VolumeError> {
+    pub fn collide(
+        &self,
+        chi: &[FaceRgb],
+        leaves: &[usize],
+        work: &mut Work,
+    ) -> Result<Vec<FaceRgb>, VolumeError> {
         let (e, p) = self.emission(chi);
         let recv: Vec<Receiver> = leaves
             .iter()
-            .filter_map(|&i| self.receiver_of.get(i).copied().flatten().map(|r| self.receivers[r]))
+            .filter_map(|&i| {
+                self.receiver_of
+                    .get(i)
+                    .copied()
+                    .flatten()
+                    .map(|r| self.receivers[r])
+            })
             .collect();
         let mut out = vec![[[0.0; 3]; 6]; recv.len()];
         let t = Instant::now();
@@ -356,7 +371,11 @@ impl<'a> System<'a> {
     ///
     /// # Errors
     /// Backend errors.
-    pub fn apply(&self, chi: &[FaceRgb], work: &mut Work) -> Result<(Vec<FaceRgb>, Vec<FaceRgb>), VolumeError> {
+    pub fn apply(
+        &self,
+        chi: &[FaceRgb],
+        work: &mut Work,
+    ) -> Result<(Vec<FaceRgb>, Vec<FaceRgb>), VolumeError> {
         let (e, p) = self.emission(chi);
         let collided = self.gather(&e, &p, 0..self.receivers.len(), work)?;
         work.applications += 1;
@@ -372,7 +391,11 @@ impl<'a> System<'a> {
     ///
     /// # Errors
     /// Backend errors.
-    pub fn jacobi(&self, chi: &mut [FaceRgb], work: &mut Work) -> Result<(f64, Vec<FaceRgb>), VolumeError> {
+    pub fn jacobi(
+        &self,
+        chi: &mut [FaceRgb],
+        work: &mut Work,
+    ) -> Result<(f64, Vec<FaceRgb>), VolumeError> {
         let (y, collided) = self.apply(chi, work)?;
         let mut new = self.sources.clone();
         for (n, k) in new.iter_mut().zip(&y) {
@@ -390,7 +413,11 @@ impl<'a> System<'a> {
     ///
     /// # Errors
     /// Backend errors.
-    pub fn gauss_seidel(&self, chi: &mut [FaceRgb], work: &mut Work) -> Result<(f64, Vec<FaceRgb>), VolumeError> {
+    pub fn gauss_seidel(
+        &self,
+        chi: &mut [FaceRgb],
+        work: &mut Work,
+    ) -> Result<(f64, Vec<FaceRgb>), VolumeError> {
         let before = chi.to_vec();
         let (mut e, mut p) = self.emission(chi);
         let mut collided = vec![[[0.0; 3]; 6]; self.receivers.len()];
@@ -504,7 +531,7 @@ impl<'a> System<'a> {
 
 /// Which faces of an opaque leaf are exposed: the voxel just outside the face's centre
 /// is outside the grid or not opaque.
-fn exposed_faces(t: &Traversal, n: usize, l: &crate::active::Leaf) -> [bool; 6] {
+pub(crate) fn exposed_faces(t: &Traversal, n: usize, l: &crate::active::Leaf) -> [bool; 6] {
     let o = l.origin().map(i64::from);
     let s = i64::from(l.size());
     std::array::from_fn(|f| {
@@ -548,7 +575,9 @@ pub fn max_update(old: &[FaceRgb], new: &[FaceRgb]) -> f64 {
 /// Flattens face powers (18 per leaf).
 #[must_use]
 pub fn flatten(x: &[FaceRgb]) -> Vec<f64> {
-    x.iter().flat_map(|f| f.iter().flat_map(|c| c.iter().copied())).collect()
+    x.iter()
+        .flat_map(|f| f.iter().flat_map(|c| c.iter().copied()))
+        .collect()
 }
 
 /// Inverse of [`flatten`].

@@ -10,9 +10,9 @@ mod common;
 use common::{EMPTY, Vox, grid};
 use glam::DVec3;
 use wavelux_quadrature::GaussLegendre;
-use wavelux_volume::cell::{Collision, entry_weights};
 use wavelux_volume::active::{ActiveSet, WeightCache};
 use wavelux_volume::backend::cpu::AntiAlias;
+use wavelux_volume::cell::{Collision, entry_weights};
 use wavelux_volume::hierarchy::{CoarseOpacity, Hierarchy};
 use wavelux_volume::system::{System, SystemSettings, Work};
 use wavelux_volume::{CpuProjector, Projection};
@@ -49,7 +49,11 @@ fn reference(e: [usize; 3], r: [usize; 3], opaque: bool, sx: f64) -> f64 {
     let a_r = -(-RECEIVER_SIGMA).ln_1p();
     let weight = |dir: DVec3| -> f64 {
         let d = dir.normalize().abs();
-        entry_weights([d.x, d.y, d.z], a_r, Collision::Exact).iter().sum::<f64>() * H * H
+        entry_weights([d.x, d.y, d.z], a_r, Collision::Exact)
+            .iter()
+            .sum::<f64>()
+            * H
+            * H
     };
     let mut sum = 0.0;
     if opaque {
@@ -126,7 +130,14 @@ fn model(e: [usize; 3], r: [usize; 3], opaque: bool, sx: usize, fb: usize, aa: A
         framebuffer: fb,
         ..SystemSettings::default()
     };
-    let sys = System::new(&proj, settings, &h, H, ActiveSet::uniform(N, 0), &mut WeightCache::default());
+    let sys = System::new(
+        &proj,
+        settings,
+        &h,
+        H,
+        ActiveSet::uniform(N, 0),
+        &mut WeightCache::default(),
+    );
     let chi = sys.sources.clone();
     let i = r[0] + N * (r[1] + N * r[2]);
     let c = sys.collide(&chi, &[i], &mut Work::default()).unwrap();
@@ -140,7 +151,11 @@ fn far_field(e: [usize; 3], r: [usize; 3], sx: f64) -> f64 {
     let b = DVec3::new(e[0] as f64, e[1] as f64, e[2] as f64) + 0.5;
     let d = (a - b).normalize().abs();
     let a_r = -(-RECEIVER_SIGMA).ln_1p();
-    let g = entry_weights([d.x, d.y, d.z], a_r, Collision::Exact).iter().sum::<f64>() * H * H;
+    let g = entry_weights([d.x, d.y, d.z], a_r, Collision::Exact)
+        .iter()
+        .sum::<f64>()
+        * H
+        * H;
     let r2 = (a - b).length_squared() * H * H;
     POWER / (4.0 * std::f64::consts::PI) / r2 * slab_t(a, b, sx) * g
 }
@@ -155,7 +170,13 @@ fn beer_lambert_axis_and_diagonal() {
     let (mut worst, mut sum_aa, mut sum_plain) = (0.0f64, 0.0, 0.0);
     for opaque in [true, false] {
         // r = 8, 12, 16 h on the axis; 6√3 ≈ 10.4 and 9√3 ≈ 15.6 h on the diagonal.
-        for (dist, diag) in [(8usize, false), (12, false), (16, false), (6, true), (9, true)] {
+        for (dist, diag) in [
+            (8usize, false),
+            (12, false),
+            (16, false),
+            (6, true),
+            (9, true),
+        ] {
             let r = if diag {
                 [e[0] + dist, e[1] + dist, e[2] + dist]
             } else {
@@ -183,5 +204,8 @@ fn beer_lambert_axis_and_diagonal() {
     }
     assert!(worst < 0.01, "worst relative error {worst}");
     // One ray per pixel aliases: a cell 8–16 h away spans only 2–4 pixels of N = 64.
-    assert!(sum_plain > 5.0 * sum_aa, "supersampling should help: {sum_plain} vs {sum_aa}");
+    assert!(
+        sum_plain > 5.0 * sum_aa,
+        "supersampling should help: {sum_plain} vs {sum_aa}"
+    );
 }

@@ -65,7 +65,10 @@ fn threshold_zero_is_the_standard_global_cube() {
         ..GlobalCubeConfig::default()
     };
     let standard = run(&g, &GlobalCubeConfig { levels: 0, ..base });
-    let hier = run(&g, &GlobalCubeConfig { levels: 2, ..base }.with_threshold(0.0));
+    let hier = run(
+        &g,
+        &GlobalCubeConfig { levels: 2, ..base }.with_threshold(0.0),
+    );
     assert_eq!(hier.elements(), 512);
     let (a, b) = (standard.emission_per_voxel(), hier.emission_per_voxel());
     let scale = a[0].iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -90,7 +93,10 @@ fn static_oracle_refines_exactly_the_cells_with_large_details() {
     let s = run(&g, &cfg);
     let h = Hierarchy::new(&g, 1, CoarseOpacity::Average).unwrap();
     let refined: usize = s.steps.iter().map(|r| r.static_refined).sum();
-    let expected = h.max_detail_opacity[1].iter().filter(|&&d| d >= 0.2).count();
+    let expected = h.max_detail_opacity[1]
+        .iter()
+        .filter(|&&d| d >= 0.2)
+        .count();
     assert_eq!(refined, expected);
     assert!(expected > 0 && expected < 64);
     // Every level-0 leaf lies in a cell whose detail reached the threshold.
@@ -143,7 +149,9 @@ fn routing_conserves_the_scattered_power() {
         },
         &h,
         g.voxel,
-        ActiveSet::uniform(8, 1).refine(&[true, false, true, false, false, false, true, false]).0,
+        ActiveSet::uniform(8, 1)
+            .refine(&[true, false, true, false, false, false, true, false])
+            .0,
         &mut WeightCache::default(),
     );
     let chi: Vec<_> = (0..sys.len())
@@ -155,9 +163,18 @@ fn routing_conserves_the_scattered_power() {
         let scattered: f64 = collided
             .iter()
             .zip(&sys.receivers)
-            .map(|(col, r)| sys.data.albedo[r.cell as usize][c] * col.iter().map(|f| f[c]).sum::<f64>())
+            .map(|(col, r)| {
+                let i = r.cell as usize;
+                // What leaves: ω (1 − p) of the total collided (the rest re-collides).
+                sys.data.albedo[i][c]
+                    * (1.0 - sys.self_collision[i])
+                    * col.iter().map(|f| f[c]).sum::<f64>()
+            })
             .sum();
-        assert!((out - scattered).abs() <= 1e-12 * scattered, "{out} vs {scattered}");
+        assert!(
+            (out - scattered).abs() <= 1e-12 * scattered,
+            "{out} vs {scattered}"
+        );
     }
 }
 
@@ -189,10 +206,21 @@ fn extremes_stay_finite() {
         source: [x as f64; 3],
         albedo: [0.5; 3],
     });
-    let s = run(&clear, &GlobalCubeConfig::default());
+    // A fine escape framebuffer: at the default 8 the directional discretisation
+    // alone is ~5 % on a 4³ grid; from 16 on what is left (~3 %) is the voxel-centre
+    // sampling of the boundary squares.
+    let s = run(
+        &clear,
+        &GlobalCubeConfig {
+            escape_framebuffer: 32,
+            ..GlobalCubeConfig::default()
+        },
+    );
     for (i, l) in s.set.leaves.iter().enumerate() {
         let v = f64::from(l.size()).powi(3);
-        let mean_x: f64 = (0..l.size()).map(|k| f64::from(l.origin()[0] + k)).sum::<f64>()
+        let mean_x: f64 = (0..l.size())
+            .map(|k| f64::from(l.origin()[0] + k))
+            .sum::<f64>()
             / f64::from(l.size());
         for f in &s.chi[i] {
             assert!((f[0] - mean_x * v / 6.0).abs() < 1e-12 * (1.0 + f[0]));
@@ -201,7 +229,10 @@ fn extremes_stay_finite() {
     }
     // Everything escapes (the boundary measurement is a discretisation: a few %).
     let e = s.energy;
-    assert!((e.escaped[0] - e.emitted[0]).abs() < 0.05 * e.emitted[0], "{e:?}");
+    assert!(
+        (e.escaped[0] - e.emitted[0]).abs() < 0.05 * e.emitted[0],
+        "{e:?}"
+    );
     // All opaque: only the outer faces emit, inner faces are hidden.
     let solid = grid(4, 1.0, |_, _, _| Vox {
         opacity: 1.0,
@@ -224,9 +255,9 @@ fn extremes_stay_finite() {
         },
     );
     assert_eq!(s.elements(), 1);
-    for tau in [1e-6, 1e-3, 1.0, 30.0, 1e3] {
+    for tau in [1e-6_f64, 1e-3, 1.0, 30.0, 1e3] {
         for w in [0.0, 0.999] {
-            let sigma = -(-tau as f64).exp_m1();
+            let sigma = -(-tau).exp_m1();
             let g = grid(8, 1.0, |x, y, z| Vox {
                 opacity: if (x + y + z) % 3 == 0 { 1.0 } else { sigma },
                 source: [if [x, y, z] == [4, 4, 4] { 1.0 } else { 0.0 }; 3],
@@ -240,9 +271,25 @@ fn extremes_stay_finite() {
                     ..GlobalCubeConfig::default()
                 },
             );
+            // GMRES iterates are not sign-preserving: negatives within the relative
+            // residual tolerance (1e-4 of the largest value) are allowed, no more.
+            let max = s
+                .chi
+                .iter()
+                .flatten()
+                .flatten()
+                .fold(0.0f64, |a, &b| a.max(b));
+            let min = s
+                .chi
+                .iter()
+                .flatten()
+                .flatten()
+                .fold(f64::INFINITY, |a, &b| a.min(b));
             assert!(
-                s.chi.iter().flatten().flatten().all(|v| v.is_finite() && *v >= 0.0),
-                "τ {tau} ω {w}"
+                s.chi.iter().flatten().flatten().all(|v| v.is_finite())
+                    && min >= -1e-4 * max
+                    && max > 0.0,
+                "τ {tau} ω {w}: min {min} max {max}"
             );
         }
     }

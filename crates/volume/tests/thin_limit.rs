@@ -22,7 +22,11 @@ const POWER: f64 = 1.0;
 
 fn nodes(k: usize) -> Vec<(f64, f64)> {
     let g = GaussLegendre::new(k).unwrap();
-    g.nodes().iter().zip(g.weights()).map(|(x, w)| (0.5 * (x + 1.0), 0.5 * w)).collect()
+    g.nodes()
+        .iter()
+        .zip(g.weights())
+        .map(|(x, w)| (0.5 * (x + 1.0), 0.5 * w))
+        .collect()
 }
 
 /// `∫_{V_q} 1/|c − x|² dV` over the unit voxel at `q` (voxel units).
@@ -89,7 +93,9 @@ fn two_thin_cells_match_the_first_neumann_term() {
             &mut WeightCache::default(),
         );
         let i = p[0] + N * (p[1] + N * p[2]);
-        let c = sys.collide(&sys.sources, &[i], &mut Work::default()).unwrap();
+        let c = sys
+            .collide(&sys.sources, &[i], &mut Work::default())
+            .unwrap();
         let model: f64 = c[0].iter().map(|f| f[0]).sum();
         let pc = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) + 0.5;
         let qv = DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64);
@@ -97,7 +103,10 @@ fn two_thin_cells_match_the_first_neumann_term() {
         let point = a * j * point_term(pc, qv);
         let volume = a * j * volume_term(pc - 0.5, qv);
         let r = ((dx * dx + dy * dy) as f64).sqrt();
-        let (e_point, gap) = ((model - point).abs() / point, (point - volume).abs() / volume);
+        let (e_point, gap) = (
+            (model - point).abs() / point,
+            (point - volume).abs() / volume,
+        );
         eprintln!("r = {r:.2} h: model/point − 1 = {e_point:.2e}, point/volume − 1 = {gap:.2e}");
         assert!(e_point < 0.01, "r {r}: {e_point}");
         // The receiver-size gap of the centre gather: ≈ (h/r)²/8 (a cube's mean of 1/|x|²).

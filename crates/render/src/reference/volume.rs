@@ -198,7 +198,14 @@ fn exposed(m: &Medium, v: [i64; 3]) -> Vec<(usize, f64)> {
 }
 
 /// Traces one particle with weights `w` from `s`; `init_max` is the roulette scale.
-fn walk(m: &Medium, mut s: State, mut w: [f64; 3], rng: &mut impl RngExt, t: &mut Tally, max_collisions: usize) {
+fn walk(
+    m: &Medium,
+    mut s: State,
+    mut w: [f64; 3],
+    rng: &mut impl RngExt,
+    t: &mut Tally,
+    max_collisions: usize,
+) {
     let init_max = w[0].max(w[1]).max(w[2]);
     if init_max <= 0.0 {
         return;
@@ -294,9 +301,15 @@ fn entry_face(s: &State) -> (usize, f64) {
 /// # Errors
 /// [`RenderError::Invalid`] for fewer than 2 batches, no particles, or a grid without
 /// sources.
-pub fn trace_volume(grid: &VolumeGrid, opts: &VolumeReferenceOptions) -> Result<VolumeEstimate, RenderError> {
+pub fn trace_volume(
+    grid: &VolumeGrid,
+    opts: &VolumeReferenceOptions,
+) -> Result<VolumeEstimate, RenderError> {
     if opts.batches < 2 {
-        return Err(invalid("batches", "at least 2 batches are needed for standard errors"));
+        return Err(invalid(
+            "batches",
+            "at least 2 batches are needed for standard errors",
+        ));
     }
     if opts.particles < opts.batches as u64 {
         return Err(invalid("particles", "fewer particles than batches"));
@@ -314,8 +327,16 @@ pub fn trace_volume(grid: &VolumeGrid, opts: &VolumeReferenceOptions) -> Result<
             for x in 0..n {
                 let i = x + n * (y + n * z);
                 let s = grid.opacity[[z, y, x]];
-                let a = if s >= 1.0 { f64::INFINITY } else { -(-s).ln_1p() };
-                depth[i] = if a > opts.opaque_depth { f64::INFINITY } else { a };
+                let a = if s >= 1.0 {
+                    f64::INFINITY
+                } else {
+                    -(-s).ln_1p()
+                };
+                depth[i] = if a > opts.opaque_depth {
+                    f64::INFINITY
+                } else {
+                    a
+                };
                 albedo[i] = [0, 1, 2].map(|c| grid.albedo[c][[z, y, x]]);
                 power[i] = [0, 1, 2].map(|c| grid.source[c][[z, y, x]] * vol);
                 weight[i] = power[i].iter().sum();
@@ -356,7 +377,15 @@ pub fn trace_volume(grid: &VolumeGrid, opts: &VolumeReferenceOptions) -> Result<
                     let mut t = Tally::new(cells);
                     for i in lo..hi {
                         let mut rng = rng_for(opts.seed, i, 0x766f6c);
-                        emit_one(&m, &cdf, total, &power, &mut rng, &mut t, opts.max_collisions);
+                        emit_one(
+                            &m,
+                            &cdf,
+                            total,
+                            &power,
+                            &mut rng,
+                            &mut t,
+                            opts.max_collisions,
+                        );
                     }
                     t
                 })

@@ -118,7 +118,11 @@ impl Pyramid {
             let mut em = vec![[0.0; 3]; trans.len()];
             for i in 0..trans.len() {
                 let mean = (trans[i] / vol).clamp(0.0, 1.0);
-                let k = if mean <= 0.0 { f64::INFINITY } else { -mean.ln() };
+                let k = if mean <= 0.0 {
+                    f64::INFINITY
+                } else {
+                    -mean.ln()
+                };
                 extinction[i] = k;
                 let a = if k == f64::INFINITY {
                     k
@@ -127,7 +131,11 @@ impl Pyramid {
                 };
                 let scale = if k > 0.0 {
                     let g = total_weight_fast(a);
-                    if g > 0.0 { 1.0 / (g * edge * edge) } else { 0.0 }
+                    if g > 0.0 {
+                        1.0 / (g * edge * edge)
+                    } else {
+                        0.0
+                    }
                 } else {
                     1.0 / (4.0 * std::f64::consts::PI * edge * edge * edge)
                 };
@@ -178,9 +186,17 @@ fn face_ray(lo: [i64; 3], size: i64, face: usize, d: [f64; 3]) -> Ray {
     let axis = face / 2;
     let negative = face % 2 == 1;
     let mut o = [0, 1, 2].map(|a| lo[a] as f64 + 0.5 * size as f64);
-    o[axis] = if negative { lo[axis] as f64 } else { (lo[axis] + size) as f64 };
+    o[axis] = if negative {
+        lo[axis] as f64
+    } else {
+        (lo[axis] + size) as f64
+    };
     let mut idx = start_voxel(o, d);
-    idx[axis] = if negative { lo[axis] - 1 } else { lo[axis] + size };
+    idx[axis] = if negative {
+        lo[axis] - 1
+    } else {
+        lo[axis] + size
+    };
     Ray {
         o,
         d,
@@ -416,7 +432,8 @@ impl Tracer<'_> {
                 let (l, s) = self.radiances(lo, size, pix.dir, pix.entry, w, per_face, footprint);
                 steps += s;
                 rad[k] = l;
-                mean[k] = [0, 1, 2].map(|c| (w[0] * l[0][c] + w[1] * l[1][c] + w[2] * l[2][c]) / wt);
+                mean[k] =
+                    [0, 1, 2].map(|c| (w[0] * l[0][c] + w[1] * l[1][c] + w[2] * l[2][c]) / wt);
             }
             if aa.subdivisions > 1 {
                 flag.fill(false);
@@ -560,7 +577,6 @@ impl AntiAlias {
     }
 }
 
-
 impl Projector for CpuProjector {
     fn name(&self) -> String {
         match self.projection {
@@ -578,7 +594,8 @@ impl Projector for CpuProjector {
         out: &mut [FaceRgb],
     ) -> Result<GatherStats, VolumeError> {
         check_inputs(&self.name(), scene, emission, receivers, out.len())?;
-        let pyramid = (self.projection == Projection::Pyramid).then(|| Pyramid::build(scene, emission));
+        let pyramid =
+            (self.projection == Projection::Pyramid).then(|| Pyramid::build(scene, emission));
         let tracer = Tracer {
             scene,
             emission,
@@ -597,7 +614,8 @@ impl Projector for CpuProjector {
             .zip(receivers.par_iter())
             .with_min_len(8)
             .map(|(o, r)| {
-                let (acc, s) = tracer.gather_one(r, map_of(r.framebuffer), collision, &self.antialias);
+                let (acc, s) =
+                    tracer.gather_one(r, map_of(r.framebuffer), collision, &self.antialias);
                 *o = acc;
                 s
             })
@@ -625,7 +643,8 @@ impl Projector for CpuProjector {
                 reason: format!("framebuffer {framebuffer} outside 1..=1024"),
             });
         }
-        let pyramid = (self.projection == Projection::Pyramid).then(|| Pyramid::build(scene, emission));
+        let pyramid =
+            (self.projection == Projection::Pyramid).then(|| Pyramid::build(scene, emission));
         let tracer = Tracer {
             scene,
             emission,
@@ -652,7 +671,11 @@ impl Projector for CpuProjector {
                     // The voxel just outside the boundary; its inward face is the square.
                     let inward_face = face_index(axis, !outward_negative);
                     for pix in &map.pixels {
-                        let c = if outward_negative { pix.dir[axis] } else { -pix.dir[axis] };
+                        let c = if outward_negative {
+                            pix.dir[axis]
+                        } else {
+                            -pix.dir[axis]
+                        };
                         if c <= 0.0 {
                             continue;
                         }

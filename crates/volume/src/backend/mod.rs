@@ -15,15 +15,15 @@
 //!
 //! For receiver `p` with framebuffer `N`, for every pixel of [`crate::cubemap::CubeMap`]
 //! `N` (direction `ω`, solid angle `ΔΩ`): a ray leaves `p`'s centre along `ω`, skips
-//! `p` itself (no self-interaction, `m_pp = 1`, §3.1) and composites front to back
+//! `p` itself (no self-interaction, `m_pp = 1`, §3.1; a receiver touching an opaque
+//! cell sends one ray per entry face from that face's centre) and composites front to back
 //! (the same sum as the paper's back-to-front slices) every cell it crosses, exactly
 //! cell by cell: a chord of length `ℓ` (metres) through cell `q` of extinction
 //! `κ = k/voxel` has opacity `α = 1 − e^{−κℓ}` and adds
-//! `T · α · Σ_s w_s(ω) e[q][s]` (`T` the transmittance so far), where `s` runs over the
-//! three faces the light leaves `q` by towards `p` with the pixel's projected-area
-//! weights `w_s` ([`crate::cubemap::Pixel::exit_weight`]) and `e` is the emission
-//! coefficient (W/(m²·sr)) of [`Emission`]; an empty cell (`k = 0`) with emission adds
-//! `T · ℓ · Σ w_s e[q][s]` (then `e` is in W/(m³·sr)). Rays stop at an opaque cell,
+//! `T · α · e[q][s]` (`T` the transmittance so far), where `s` is the face the ray
+//! enters `q` through (the face the light leaves `q` by towards `p`) and `e` is the
+//! emission coefficient (W/(m²·sr)) of [`Emission`]; an empty cell (`k = 0`) with
+//! emission adds `T · ℓ · e[q][s]` (then `e` is in W/(m³·sr)). Rays stop at an opaque cell,
 //! when `T < 1e-13`, or at the grid's black boundary. The pixel's radiance `L` is
 //! collided through `p`'s three entry faces with the weights
 //! [`crate::cell::entry_weights`]`(|ω|, A_p)`, times `ΔΩ`; the six sums are scaled by
