@@ -21,8 +21,10 @@
 //!   (29)), and the receiver's collision weights per entry face (the directional and
 //!   positional corrections, eq. (30), Fig. 6) — see below.
 //! * **Senders.** A sender contributes `S(ω) · α(ω)` (colour × opacity): `α` is the
-//!   chord's opacity, `S(ω)` the projected-area mean of the faces `ω` leaves by, of the
-//!   face coefficients `e_s = 6 Chi_s / (Ĝ h²)`, normalised so that the cell emits
+//!   chord's opacity, `S` the coefficient `e_s = 6 Chi_s / (Ĝ h²)` of the face `s` the
+//!   ray enters the sender through (the face the light leaves it by; over the cell's
+//!   cross-section this is the projected-area mean of the faces `ω` leaves by, and a
+//!   face hidden behind a touching opaque cell is never seen), normalised so that the cell emits
 //!   exactly `Σ Chi` over all directions. So opaque cells are non-leaking Lambertian
 //!   boxes (intensity `P Σ|ω_i| / 6π`: `P/6π` on an axis), thin cells isotropic
 //!   emitters (`P/4π`), and a uniform radiance field is reproduced exactly.
@@ -52,7 +54,7 @@
 //! in the paper's averaging units); active cells are octree leaves of mixed level
 //! ([`active`]); the framebuffer side follows the level (the paper's 16², 32², 64² for
 //! the 16³, 32³, 64³ levels), capped. The solve loop with the static and dynamic
-//! oracles and eqs. (33)–(34) is [`solve`]; the relaxations (Jacobi eq. (28),
+//! oracles and eqs. (33)–(34) is [`mod@solve`]; the relaxations (Jacobi eq. (28),
 //! Gauss–Seidel, GMRES) are in [`system`].
 //!
 //! # Backends
