@@ -181,29 +181,33 @@ fn cases(quick: bool) -> Vec<Case> {
     v
 }
 
-/// Runs the reproduction.
-pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
-    let mut report = Report {
-        paper_did: "Ziegler §2.2.3 describes the two realisations of a hierarchical wavelet \
-method: the non-standard one (Gortler et al.), which needs O(n) form factors but a \
-normalisation/denormalisation (push/pull) around every iteration, and the standard one \
-(Christensen et al., Stollnitz et al.), which \"has a theoretical disadvantage because it \
-requires O(n log n) form factors\" but needs \"only one wavelet decomposition step in the \
-beginning and one final wavelet reconstruction step\". Glossy §3.5 uses the standard \
-decomposition, quotes the same theory (Beylkin et al. 1991: O(n) vs O(n log n) non-zeros \
-for a smooth operator) and reports that in Christensen's flatland experiments \"the \
-standard decomposition can approximate some transport matrices using as few or fewer \
-interactions than the nonstandard decomposition. Thus in practice the nonstandard \
-decomposition is often no more sparse than the standard decomposition.\" Neither seed \
-gives numbers for a 3D radiosity scene."
-            .into(),
-        ..Report::default()
-    };
-    let cases = cases(ctx.quick);
+/// Per-case results accumulated over the cases.
+#[derive(Default)]
+struct CaseResults {
+    tab: Vec<Vec<String>>,
+    max_diff: f64,
+    ratios_all: Vec<f64>,
+    ratios_above: Vec<f64>,
+    apply_ratios: Vec<f64>,
+    solve_ratios: Vec<f64>,
+    no_denser: usize,
+    series: Vec<Series>,
+}
+
+/// The depth sweep (one configuration, increasing m: Beylkin's log n factor).
+struct DepthSweep {
+    levels: Vec<u8>,
+    tab: Vec<Vec<String>>,
+    /// (ε, nnz ratio at the deepest level / at the shallowest).
+    growth: Vec<(f64, f64)>,
+    max_diff: f64,
+}
+
+fn record_params(report: &mut Report, quick: bool) {
     report.param("scenes", "Unoccluded (Ziegler §4.1), Cornell box (builtin)");
     report.param(
         "levels m (Haar / M2 / M3)",
-        if ctx.quick {
+        if quick {
             "Unoccluded 3/2/2, Cornell 2/1/1"
         } else {
             "Unoccluded 5/4/3, Cornell 3/2/2"
@@ -211,7 +215,7 @@ gives numbers for a 3D radiosity scene."
     );
     report.param(
         "ε (kernel-smoothness oracle)",
-        if ctx.quick {
+        if quick {
             "Unoccluded 1e-2, 1e-3; Cornell 0.05"
         } else {
             "Unoccluded 1e-2, 1e-3, 1e-4; Cornell 0.1, 0.03, 0.01"
@@ -230,17 +234,23 @@ gives numbers for a 3D radiosity scene."
         "threads available",
         std::thread::available_parallelism().map_or(1, |n| n.get()),
     );
-    let mut tab = Vec::new();
-    let mut max_diff = 0.0f64;
-    let mut ratios_all = Vec::new();
-    let mut ratios_above = Vec::new();
-    let mut apply_ratios = Vec::new();
-    let mut solve_ratios = Vec::new();
-    let mut no_denser = 0usize;
-    let mut series: Vec<Series> = Vec::new();
-    for case in &cases {
+}
+
+fn run_cases(cases: &[Case]) -> anyhow::Result<CaseResults> {
+    let mut c = CaseResults::default();
+    let CaseResults {
+        tab,
+        max_diff,
+        ratios_all,
+        ratios_above,
+        apply_ratios,
+        solve_ratios,
+        no_denser,
+        series,
+    } = &mut c;
+    for case in cases {
         let o = run_case(case)?;
-        max_diff = max_diff.max(o.max_diff);
+        *max_diff = max_diff.max(o.max_diff);
         let r_all = o.std_nonzeros as f64 / o.ns_coeffs as f64;
         let r_above = o.std_above as f64 / o.ns_above.max(1) as f64;
         ratios_all.push(r_all);
@@ -248,7 +258,7 @@ gives numbers for a 3D radiosity scene."
         apply_ratios.push(o.t_std_apply / o.t_ns_apply);
         solve_ratios.push(o.t_std_solve / o.t_ns_solve);
         if o.std_above <= o.ns_above {
-            no_denser += 1;
+            *no_denser += 1;
         }
         let label = format!("{}, {}", case.scene, case.basis.name());
         match series.iter_mut().find(|s| s.label == label) {
@@ -280,14 +290,15 @@ gives numbers for a 3D radiosity scene."
             format!("{:.1e}", o.max_diff),
         ]);
     }
+    Ok(c)
+}
+
+fn depth_sweep(quick: bool) -> anyhow::Result<DepthSweep> {
     // Growth with the depth: one configuration, increasing m (Beylkin's log n factor).
-    let sweep_levels: Vec<u8> = if ctx.quick {
-        vec![2, 3]
-    } else {
-        vec![2, 3, 4, 5]
-    };
+    let sweep_levels: Vec<u8> = if quick { vec![2, 3] } else { vec![2, 3, 4, 5] };
     let mut sweep_tab = Vec::new();
     let mut sweep_growth = Vec::new();
+    let mut max_diff = 0.0f64;
     for eps in SWEEP_EPS {
         let mut ratios = Vec::new();
         for &m in &sweep_levels {
@@ -314,7 +325,19 @@ gives numbers for a 3D radiosity scene."
         }
         sweep_growth.push((eps, ratios[ratios.len() - 1] / ratios[0]));
     }
-    let n = cases.len();
+    Ok(DepthSweep {
+        levels: sweep_levels,
+        tab: sweep_tab,
+        growth: sweep_growth,
+        max_diff,
+    })
+}
+
+fn push_rows(report: &mut Report, c: &CaseResults, d: &DepthSweep, n: usize) {
+    let (ratios_all, ratios_above) = (&c.ratios_all, &c.ratios_above);
+    let (apply_ratios, solve_ratios) = (c.apply_ratios.clone(), c.solve_ratios.clone());
+    let (no_denser, sweep_levels) = (c.no_denser, &d.levels);
+    let max_diff = c.max_diff.max(d.max_diff);
     report.rows.push(
         Row::new(
             "max relative difference of the leaf solutions, standard vs non-standard (all cases)",
@@ -388,7 +411,7 @@ gives numbers for a 3D radiosity scene."
         )
         .comment("excludes refinement and the one-off standard assembly (tabulated separately)"),
     );
-    for (eps, g) in sweep_growth {
+    for &(eps, g) in &d.growth {
         report.rows.push(
             Row::new(
                 format!(
@@ -405,6 +428,9 @@ gives numbers for a 3D radiosity scene."
                    = 1 while refinement is uniform (both forms dense)"),
         );
     }
+}
+
+fn push_tables(report: &mut Report, sweep_tab: Vec<Vec<String>>, tab: Vec<Vec<String>>) {
     report.tables.push(Table {
         title: "Depth sweep: Unoccluded, Haar (ratios standard / non-standard)".into(),
         headers: [
@@ -451,6 +477,9 @@ gives numbers for a 3D radiosity scene."
         .collect(),
         rows: tab,
     });
+}
+
+fn push_figure(ctx: &Ctx, report: &mut Report, mut series: Vec<Series>) -> anyhow::Result<()> {
     let path = ctx.figure_path("standard_vs_nonstandard.svg");
     let diag_max = series
         .iter()
@@ -479,6 +508,34 @@ gives numbers for a 3D radiosity scene."
                   form needs more coefficients."
             .into(),
     });
+    Ok(())
+}
+
+/// Runs the reproduction.
+pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
+    let mut report = Report {
+        paper_did: "Ziegler §2.2.3 describes the two realisations of a hierarchical wavelet \
+method: the non-standard one (Gortler et al.), which needs O(n) form factors but a \
+normalisation/denormalisation (push/pull) around every iteration, and the standard one \
+(Christensen et al., Stollnitz et al.), which \"has a theoretical disadvantage because it \
+requires O(n log n) form factors\" but needs \"only one wavelet decomposition step in the \
+beginning and one final wavelet reconstruction step\". Glossy §3.5 uses the standard \
+decomposition, quotes the same theory (Beylkin et al. 1991: O(n) vs O(n log n) non-zeros \
+for a smooth operator) and reports that in Christensen's flatland experiments \"the \
+standard decomposition can approximate some transport matrices using as few or fewer \
+interactions than the nonstandard decomposition. Thus in practice the nonstandard \
+decomposition is often no more sparse than the standard decomposition.\" Neither seed \
+gives numbers for a 3D radiosity scene."
+            .into(),
+        ..Report::default()
+    };
+    let cases = cases(ctx.quick);
+    record_params(&mut report, ctx.quick);
+    let c = run_cases(&cases)?;
+    let d = depth_sweep(ctx.quick)?;
+    push_rows(&mut report, &c, &d, cases.len());
+    push_tables(&mut report, d.tab, c.tab);
+    push_figure(ctx, &mut report, c.series)?;
     report.we_did = "Each case is refined once (non-standard links, Ziegler §2.2.3 top-down \
 refinement); the same links are then expressed in the standard form: the per-patch tree \
 wavelet basis (root scaling block plus the 3k² tensor wavelets ψφ, φψ, ψψ of every internal \

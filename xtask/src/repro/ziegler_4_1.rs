@@ -341,100 +341,146 @@ fn links_for(s: &Sweep, err: f64) -> Option<f64> {
     Some((a.0.ln() + t * (b.0.ln() - a.0.ln())).exp())
 }
 
-/// Runs the reproduction.
-pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
-    let mut report = Report {
-        paper_did: "Ziegler §4.1 compares Haar (ε = 1e-5, m = 5), linear multiwavelets MW \
-(ε = 1e-4, m = 4) and CDV (ε = 1e-4, m = 3), each with 1024 functions on the receiver, \
-n_samp = 3, on \"Unoccluded\" (the Gortler et al. 1993 scene: a small rotated emitter \
-close to the receiver, E = 100, ρ₀ = 0.4; reference from the analytic point-to-polygon \
-form factor) and \"Occluded\" (emitting part of a parallel square, rotated blocker; \
-reference a master MW solution with ε = 1e-4, m = 5). Figs. 4.4/4.5 plot the relative L1 \
-error on S0 against the number of links (curves made by discarding the smallest \
-coefficients). Findings: acceptable unoccluded solutions with about 2000 links \
-(< 32 000 form factors, ≈ 3% of the 1024² full matrix); unoccluded ranking MW < CDV < \
-Haar (error); occluded: MW worst, CDV best, Haar almost as good as CDV at many links; \
-fractional visibility fails at shadow boundaries (Fig. 4.3)."
-            .into(),
-        ..Report::default()
-    };
-    let quick = ctx.quick;
-    let n_grid = if quick { 64 } else { 128 };
-    // Quick mode keeps the thesis's levels on the cheap Unoccluded scene (so its rows
-    // mean the same) and lowers the Occluded master's level.
-    let (haar_m, mw_m, master_m): (u8, u8, u8) = if quick { (5, 4, 4) } else { (5, 4, 5) };
-    // CDV: `max_level` is the dyadic level, 4^m functions as for Haar (Ziegler's m = 3
-    // above the coarsest CDV level 2 gives n_3 = 1024).
-    let cdv_m = haar_m;
-    let eps_list: Vec<f64> = if quick {
-        vec![1e-1, 3e-2, 1e-2, 3e-3, 1e-3]
-    } else {
-        vec![3e-1, 1e-1, 3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5]
-    };
-    report.param("L1 grid on S0 (midpoints per axis)", n_grid);
-    report.param(
-        "levels Haar / MW (M2) / CDV (dyadic)",
-        format!("{haar_m} / {mw_m} / {cdv_m}"),
-    );
-    report.param("ε sweep", format!("{eps_list:?}"));
-    report.param("n_samp", 3);
-    report.param("occluded master", format!("M2, ε = 1e-4, level {master_m}"));
+/// The run's sizes: the thesis's levels, smaller grids and fewer ε in quick mode.
+struct Settings {
+    n_grid: usize,
+    haar_m: u8,
+    mw_m: u8,
+    cdv_m: u8,
+    master_m: u8,
+    k_cells: usize,
+    eps_list: Vec<f64>,
+    quick: bool,
+}
 
-    // Unoccluded.
-    let un = unoccluded();
-    let un_ref = analytic(&un, n_grid)?;
-    let un_sweeps = vec![
-        sweep(&un, BasisKind::Haar, haar_m, &eps_list, &un_ref, n_grid)?,
-        sweep(
-            &un,
-            BasisKind::Multiwavelet(2),
+impl Settings {
+    fn new(quick: bool) -> Self {
+        // Quick mode keeps the thesis's levels on the cheap Unoccluded scene (so its rows
+        // mean the same) and lowers the Occluded master's level.
+        let (haar_m, mw_m, master_m): (u8, u8, u8) = if quick { (5, 4, 4) } else { (5, 4, 5) };
+        Settings {
+            n_grid: if quick { 64 } else { 128 },
+            haar_m,
             mw_m,
-            &eps_list,
-            &un_ref,
-            n_grid,
-        )?,
-        sweep(&un, BasisKind::Cdv, cdv_m, &eps_list, &un_ref, n_grid)?,
-    ];
-    // Occluded master and sweeps.
-    let oc = occluded();
+            // CDV: `max_level` is the dyadic level, 4^m functions as for Haar (Ziegler's
+            // m = 3 above the coarsest CDV level 2 gives n_3 = 1024).
+            cdv_m: haar_m,
+            master_m,
+            k_cells: if quick { 16 } else { 32 },
+            eps_list: if quick {
+                vec![1e-1, 3e-2, 1e-2, 3e-3, 1e-3]
+            } else {
+                vec![3e-1, 1e-1, 3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5]
+            },
+            quick,
+        }
+    }
+
+    fn record(&self, report: &mut Report) {
+        report.param("L1 grid on S0 (midpoints per axis)", self.n_grid);
+        report.param(
+            "levels Haar / MW (M2) / CDV (dyadic)",
+            format!("{} / {} / {}", self.haar_m, self.mw_m, self.cdv_m),
+        );
+        report.param("ε sweep", format!("{:?}", self.eps_list));
+        report.param("n_samp", 3);
+        report.param(
+            "occluded master",
+            format!("M2, ε = 1e-4, level {}", self.master_m),
+        );
+        report.param(
+            "occluded reference",
+            format!(
+                "exact direct term (visible-emitter contour form factors) + second bounce from \
+                 the master on {}² cells",
+                self.k_cells
+            ),
+        );
+    }
+
+    /// The ε sweeps of Haar, MW (M2) and CDV on `scene` against `reference`.
+    fn sweeps(&self, scene: &Scene, reference: &[f64]) -> anyhow::Result<Vec<Sweep>> {
+        let n = self.n_grid;
+        Ok(vec![
+            sweep(
+                scene,
+                BasisKind::Haar,
+                self.haar_m,
+                &self.eps_list,
+                reference,
+                n,
+            )?,
+            sweep(
+                scene,
+                BasisKind::Multiwavelet(2),
+                self.mw_m,
+                &self.eps_list,
+                reference,
+                n,
+            )?,
+            sweep(
+                scene,
+                BasisKind::Cdv,
+                self.cdv_m,
+                &self.eps_list,
+                reference,
+                n,
+            )?,
+        ])
+    }
+}
+
+/// "Occluded": the scene, its M2 master, the independent reference and the sweeps
+/// measured against both.
+struct Occluded {
+    scene: Scene,
+    reference: Vec<f64>,
+    /// Relative L1 error of the master against the independent reference.
+    master_err: f64,
+    /// Sweeps against the independent reference.
+    sweeps: Vec<Sweep>,
+    /// The same sweeps against the master (the thesis's method).
+    sweeps_master: Vec<Sweep>,
+}
+
+fn occluded_runs(s: &Settings) -> anyhow::Result<Occluded> {
+    let scene = occluded();
     let master_cfg = SolverConfig {
         basis: BasisKind::Multiwavelet(2),
         eps: 1e-4,
-        max_level: master_m,
+        max_level: s.master_m,
         quad_points: 3,
         ..SolverConfig::default()
     };
-    let master = solve(&oc, &master_cfg)?;
-    let oc_master = grid(&master, n_grid);
+    let master = solve(&scene, &master_cfg)?;
+    let oc_master = grid(&master, s.n_grid);
     // The independent reference: exact direct term, second bounce from the master.
-    let k_cells = if quick { 16 } else { 32 };
-    let oc_ref = occluded_reference(&oc, &master, n_grid, k_cells)?;
-    report.param(
-        "occluded reference",
-        format!(
-            "exact direct term (visible-emitter contour form factors) + second bounce from \
-             the master on {k_cells}² cells"
-        ),
-    );
-    let oc_sweeps_master = [
-        sweep(&oc, BasisKind::Haar, haar_m, &eps_list, &oc_master, n_grid)?,
-        sweep(
-            &oc,
-            BasisKind::Multiwavelet(2),
-            mw_m,
-            &eps_list,
-            &oc_master,
-            n_grid,
-        )?,
-        sweep(&oc, BasisKind::Cdv, cdv_m, &eps_list, &oc_master, n_grid)?,
-    ];
-    let oc_sweeps: Vec<Sweep> = oc_sweeps_master
+    let reference = occluded_reference(&scene, &master, s.n_grid, s.k_cells)?;
+    let sweeps_master = s.sweeps(&scene, &oc_master)?;
+    let sweeps = sweeps_master
         .iter()
-        .map(|s| s.against(&oc_ref))
+        .map(|w| w.against(&reference))
         .collect();
-    let master_err = l1(&oc_master, &oc_ref);
+    Ok(Occluded {
+        master_err: l1(&oc_master, &reference),
+        scene,
+        reference,
+        sweeps,
+        sweeps_master,
+    })
+}
+
+/// The ε-sweep table and Figs. 4.4/4.5.
+fn sweep_table_and_figures(
+    ctx: &Ctx,
+    report: &mut Report,
+    s: &Settings,
+    un_sweeps: &[Sweep],
+    oc_sweeps: &[Sweep],
+) -> anyhow::Result<()> {
+    let (eps_list, n_grid) = (&s.eps_list, s.n_grid);
     let mut tab = Vec::new();
-    for (scene, sweeps) in [("Unoccluded", &un_sweeps), ("Occluded", &oc_sweeps)] {
+    for (scene, sweeps) in [("Unoccluded", un_sweeps), ("Occluded", oc_sweeps)] {
         for s in sweeps.iter() {
             for (e, p) in eps_list.iter().zip(&s.points) {
                 tab.push(vec![
@@ -448,7 +494,7 @@ fractional visibility fails at shadow boundaries (Fig. 4.3)."
             }
         }
     }
-    for (fig, scene, sweeps) in [(4, "Unoccluded", &un_sweeps), (5, "Occluded", &oc_sweeps)] {
+    for (fig, scene, sweeps) in [(4, "Unoccluded", un_sweeps), (5, "Occluded", oc_sweeps)] {
         let p = ctx.figure_path(&format!("fig4.{fig}.svg"));
         let series: Vec<Series> = sweeps
             .iter()
@@ -478,7 +524,25 @@ smallest coefficients of one fine solution). CDV counts one link per vertex pair
         });
     }
 
-    // Rows.
+    report.tables.push(Table {
+        title: "ε sweeps".into(),
+        headers: [
+            "scene",
+            "basis",
+            "ε",
+            "links (Ziegler's count)",
+            "stored link blocks",
+            "relative L1 error",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: tab,
+    });
+    Ok(())
+}
+
+/// Rows of "Unoccluded": the ranking at 2000 links and links for equal accuracy.
+fn unoccluded_rows(report: &mut Report, un_sweeps: &[Sweep]) {
     let haar_un = error_at(&un_sweeps[0], PAPER_ACCEPTABLE_LINKS);
     let mw_un = error_at(&un_sweeps[1], PAPER_ACCEPTABLE_LINKS);
     report.rows.push(Row::new(
@@ -568,6 +632,12 @@ passes when CDV needs fewer links than Haar."
         "",
         Tolerance::AtMost(0.05),
     ));
+}
+
+/// Rows of "Occluded": the ranking against the independent reference, and against the
+/// master as context.
+fn occluded_rows(report: &mut Report, oc: &Occluded) {
+    let (oc_sweeps, oc_sweeps_master, master_err) = (&oc.sweeps, &oc.sweeps_master, oc.master_err);
     let many = oc_sweeps
         .iter()
         .map(|s| s.points.iter().map(|p| p.0).fold(0.0, f64::max))
@@ -629,7 +699,19 @@ passes when CDV needs fewer links than Haar."
             .comment("context: how the reference choice moves the ranking"),
         );
     }
+}
 
+/// Fig. 4.3 (fractional visibility against visibility in quadrature) and the
+/// reference images.
+fn visibility_figures(
+    ctx: &Ctx,
+    report: &mut Report,
+    s: &Settings,
+    oc: &Occluded,
+    un_ref: &[f64],
+) -> anyhow::Result<()> {
+    let (quick, n_grid, master_m) = (s.quick, s.n_grid, s.master_m);
+    let (oc_ref, master_err) = (&oc.reference, oc.master_err);
     // Fig. 4.3: fractional visibility vs visibility in quadrature, MW with 1024
     // functions (level 4; quick: level 3).
     let f_level = if quick { 3 } else { 4 };
@@ -646,16 +728,16 @@ passes when CDV needs fewer links than Haar."
             quad_points: 3,
             ..SolverConfig::default()
         };
-        let sol = solve(&oc, &cfg)?;
+        let sol = solve(&oc.scene, &cfg)?;
         let g = grid(&sol, n_grid);
-        imgs.push((name, l1(&g, &oc_ref), g, sol.stats.links));
+        imgs.push((name, l1(&g, oc_ref), g, sol.stats.links));
     }
     let vmax = oc_ref.iter().fold(0.0f64, |a, &b| a.max(b));
     let p = ctx.figure_path("fig4.3-master.svg");
     heatmap(
         &p,
         "Occluded: independent reference on S0",
-        &oc_ref,
+        oc_ref,
         n_grid,
         vmax,
     )?;
@@ -696,7 +778,7 @@ passes when CDV needs fewer links than Haar."
     heatmap(
         &p,
         "Unoccluded: analytic solution on S0",
-        &un_ref,
+        un_ref,
         n_grid,
         umax,
     )?;
@@ -704,21 +786,12 @@ passes when CDV needs fewer links than Haar."
         path: p,
         caption: "Unoccluded analytic solution ρ₀ E F(p → S1) on S0.".into(),
     });
-    report.tables.push(Table {
-        title: "ε sweeps".into(),
-        headers: [
-            "scene",
-            "basis",
-            "ε",
-            "links (Ziegler's count)",
-            "stored link blocks",
-            "relative L1 error",
-        ]
-        .map(String::from)
-        .to_vec(),
-        rows: tab,
-    });
-    report.we_did = format!(
+    Ok(())
+}
+
+fn we_did_text(s: &Settings) -> String {
+    let (n_grid, master_m, k_cells) = (s.n_grid, s.master_m, s.k_cells);
+    format!(
         "Scenes from `wavelux::scene::builtin::{{unoccluded, occluded}}` (the thesis's figures \
 are lost; emitter of side 0.25 at height 0.1 rotated 30°, emitting part [0.25,0.75]² of the \
 upper square, blocker of side 0.4 at z = 0.5 rotated 30°; all documented there). Radiosity \
@@ -743,6 +816,36 @@ the M3 cell-pair blocks (n_samp = 3 Gauss points per axis and cell, visibility i
 quadrature) instead of Ziegler's 3-sample piecewise-linear kernel interpolation with \
 tabulated moments. The occluded scene's upper square is split into four rectangles \
 around the emitting square (one support each)."
-    );
+    )
+}
+
+/// Runs the reproduction.
+pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
+    let mut report = Report {
+        paper_did: "Ziegler §4.1 compares Haar (ε = 1e-5, m = 5), linear multiwavelets MW \
+(ε = 1e-4, m = 4) and CDV (ε = 1e-4, m = 3), each with 1024 functions on the receiver, \
+n_samp = 3, on \"Unoccluded\" (the Gortler et al. 1993 scene: a small rotated emitter \
+close to the receiver, E = 100, ρ₀ = 0.4; reference from the analytic point-to-polygon \
+form factor) and \"Occluded\" (emitting part of a parallel square, rotated blocker; \
+reference a master MW solution with ε = 1e-4, m = 5). Figs. 4.4/4.5 plot the relative L1 \
+error on S0 against the number of links (curves made by discarding the smallest \
+coefficients). Findings: acceptable unoccluded solutions with about 2000 links \
+(< 32 000 form factors, ≈ 3% of the 1024² full matrix); unoccluded ranking MW < CDV < \
+Haar (error); occluded: MW worst, CDV best, Haar almost as good as CDV at many links; \
+fractional visibility fails at shadow boundaries (Fig. 4.3)."
+            .into(),
+        ..Report::default()
+    };
+    let s = Settings::new(ctx.quick);
+    s.record(&mut report);
+    let un = unoccluded();
+    let un_ref = analytic(&un, s.n_grid)?;
+    let un_sweeps = s.sweeps(&un, &un_ref)?;
+    let oc = occluded_runs(&s)?;
+    sweep_table_and_figures(ctx, &mut report, &s, &un_sweeps, &oc.sweeps)?;
+    unoccluded_rows(&mut report, &un_sweeps);
+    occluded_rows(&mut report, &oc);
+    visibility_figures(ctx, &mut report, &s, &oc, &un_ref)?;
+    report.we_did = we_did_text(&s);
     Ok(report)
 }
