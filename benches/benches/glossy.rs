@@ -1,0 +1,101 @@
+//! Glossy benches (issue 16): Ward BRDF evaluation and half-vector sampling per
+//! variant (evaluations per second on one core), and the final gather (Glossy §5.5) per
+//! pixel on the Cornell box with Ward (α = 0.2) walls after the `V⁰` solve, for the
+//! three sender choices (all senders, linked senders, root links only).
+#![allow(missing_docs)] // reason: criterion's macros generate undocumented items
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use glam::{DVec2, DVec3};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
+use std::hint::black_box;
+use wavelux::glossy::{GatherMode, GlossyConfig, GlossySolution, WardLobe, WardVariant};
+use wavelux::scene::builtin::cornell_box;
+use wavelux::scene::{Rgb, WardParams};
+
+const N: usize = 4096;
+
+/// `N` random upper-hemisphere direction pairs and `N` uniform sample pairs.
+fn inputs() -> (Vec<(DVec3, DVec3)>, Vec<[f64; 2]>) {
+    let mut rng = Pcg64::seed_from_u64(16);
+    let dir = |rng: &mut Pcg64| {
+        let z: f64 = rng.random();
+        let phi = std::f64::consts::TAU * rng.random::<f64>();
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        DVec3::new(r * phi.cos(), r * phi.sin(), z)
+    };
+    let pairs = (0..N).map(|_| (dir(&mut rng), dir(&mut rng))).collect();
+    let us = (0..N).map(|_| [rng.random(), rng.random()]).collect();
+    (pairs, us)
+}
+
+fn ward(c: &mut Criterion) {
+    let (pairs, us) = inputs();
+    let mut g = c.benchmark_group("glossy/ward");
+    g.throughput(Throughput::Elements(N as u64));
+    for v in WardVariant::ALL {
+        let lobe = WardLobe::new(v, 0.2, 0.1).expect("valid roughness");
+        g.bench_with_input(BenchmarkId::new("eval", v.name()), &lobe, |b, l| {
+            b.iter(|| {
+                let mut s = 0.0;
+                for &(wi, wo) in &pairs {
+                    s += l.eval(wi, wo);
+                }
+                black_box(s)
+            });
+        });
+        g.bench_with_input(BenchmarkId::new("sample", v.name()), &lobe, |b, l| {
+            b.iter(|| {
+                let mut s = 0.0;
+                for (k, u) in us.iter().enumerate() {
+                    if let Some((_, pdf, w)) = l.sample(pairs[k].0, *u) {
+                        s += pdf + w;
+                    }
+                }
+                black_box(s)
+            });
+        });
+    }
+    g.finish();
+}
+
+fn gather(c: &mut Criterion) {
+    let mut scene = cornell_box();
+    for m in &mut scene.materials {
+        if m.emission.0 == [0.0; 3] {
+            m.ward = Some(WardParams {
+                specular: Rgb::grey(0.2),
+                alpha_x: 0.2,
+                alpha_y: 0.2,
+            });
+            m.reflectance = Rgb(m.reflectance.0.map(|r| 0.7 * r));
+        }
+    }
+    let sol = GlossySolution::new(
+        &scene,
+        "builtin:cornell-box",
+        GlossyConfig {
+            rounds: 0,
+            ..GlossyConfig::default()
+        },
+    )
+    .expect("the Cornell box solves");
+    // A point in the middle of the first reflecting patch, seen from straight above.
+    let patch = (0..sol.scene.patches.len())
+        .find(|&p| !sol.scene.patches[p].is_emitter() && !sol.scene.patches[p].is_eye())
+        .expect("a reflecting patch");
+    let n = sol.scene.patches[patch].support.normal_at(0.5, 0.5);
+    let w = (n + 0.3 * n.any_orthonormal_vector()).normalize();
+    let mut g = c.benchmark_group("glossy/gather_per_pixel");
+    g.sample_size(20);
+    for mode in [GatherMode::Root, GatherMode::Linked, GatherMode::All] {
+        g.bench_function(BenchmarkId::new(mode.name(), 16), |b| {
+            let mut rng = Pcg64::seed_from_u64(7);
+            b.iter(|| black_box(sol.gather(patch, DVec2::splat(0.5), w, mode, 16, &mut rng, true)));
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, ward, gather);
+criterion_main!(benches);
