@@ -13,6 +13,7 @@ mod glossy_fig13;
 mod glossy_ward;
 mod speed_accuracy;
 mod standard;
+mod transfer_accuracy;
 mod virtual_mesh_common;
 mod virtual_mesh_fig4;
 mod virtual_mesh_table1;
@@ -114,6 +115,13 @@ pub fn all() -> Vec<Reproduction> {
             seed_file: "003_fdfe6675de3bf6ad.txt",
             title: "Ward albedo of the Original, Product and Bounded normalisations",
             run: glossy_ward::run,
+        },
+        Reproduction {
+            id: "transfer-accuracy",
+            source: "issue 11 §5: Howell's catalogue and white furnaces",
+            seed_file: "004_cb5b08859768bf36.txt",
+            title: "Transfer accuracy at the geometric extremes: analytic catalogue and white furnaces",
+            run: transfer_accuracy::run,
         },
     ]
 }
