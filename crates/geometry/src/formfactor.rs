@@ -146,10 +146,16 @@ struct Outer {
 }
 
 impl Outer {
-    fn new() -> Result<Outer, GeometryError> {
-        GaussLegendre::new(20)
-            .map(|gl| Outer { gl })
-            .map_err(|_| GeometryError::Degenerate("Gauss–Legendre rule of order 20 unavailable"))
+    /// The shared 20-point rule (built once: the solver evaluates the contour
+    /// integral for every link).
+    fn get() -> Result<&'static Outer, GeometryError> {
+        static OUTER: std::sync::OnceLock<Option<Outer>> = std::sync::OnceLock::new();
+        OUTER
+            .get_or_init(|| GaussLegendre::new(20).ok().map(|gl| Outer { gl }))
+            .as_ref()
+            .ok_or(GeometryError::Degenerate(
+                "Gauss–Legendre rule of order 20 unavailable",
+            ))
     }
 
     /// `∫_a^b f` on a panel graded geometrically towards the end points `a`/`b` flagged.
@@ -270,13 +276,13 @@ pub fn area_form_factor(pi: &[DVec3], pj: &[DVec3]) -> Result<f64, GeometryError
     if ci.len() < 3 || cj.len() < 3 {
         return Ok(0.0);
     }
-    let outer = Outer::new()?;
+    let outer = Outer::get()?;
     let mut sum = 0.0;
     for a in 0..ci.len() {
         let (p0, p1) = (ci[a], ci[(a + 1) % ci.len()]);
         for b in 0..cj.len() {
             let (q0, q1) = (cj[b], cj[(b + 1) % cj.len()]);
-            sum += edge_pair(&outer, p0, p1, q0, q1);
+            sum += edge_pair(outer, p0, p1, q0, q1);
         }
     }
     Ok(sum / (2.0 * PI))
