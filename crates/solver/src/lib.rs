@@ -16,9 +16,13 @@
 //! - [`mask`]: trim masks of virtual supports (real/virtual points, exact coverage
 //!   and real-area fractions, nearest real points; VirtualMesh §4, §5.4);
 //! - [`basis`]: 2D tree bases from `wavelux-mra`, two-scale (push/pull) matrices;
+//! - [`exact`]: exact unoccluded transfer of planar pieces (contour integrals, Lambert's
+//!   point form factor, adaptive moments) that link blocks are corrected to;
 //! - [`transfer`]: kernel, transfer blocks (regular Gauss, singular Sauter–Schwab
 //!   rules for touching elements, visibility in quadrature or fractional), oracle;
 //! - [`hierarchy`]: nodes, links, refinement, the compiled level-ordered hierarchy;
+//! - [`closure`]: closure links that make every leaf's form-factor row sum exactly what
+//!   its links see (so closed enclosures conserve energy at every level);
 //! - [`cdv`]: Cohen–Daubechies–Vial wavelets (overlapping supports): vertex links,
 //!   deduplicated refinement, push/pull by the CDV two-scale rows, its own system;
 //! - [`system`]: matrix-free `K`, `Kᵀ` and Gauss–Seidel sweeps (rayon, deterministic);
@@ -40,9 +44,11 @@
 
 pub mod basis;
 pub mod cdv;
+pub mod closure;
 pub mod error;
 pub mod escape;
 pub mod estimate;
+pub mod exact;
 pub mod hierarchy;
 pub mod mask;
 pub mod shoot;
@@ -713,6 +719,14 @@ pub(crate) fn solve_links(
     let patches = &prep.patches.patches;
     let t_ref = Instant::now();
     let h = Hierarchy::compile(prep.basis.n(), patches.len(), links);
+    // Closure links (one per leaf whose row sum the links' pushed projections miss).
+    let closing = closure::closure_links(ctx, &h, links);
+    let h = if closing.is_empty() {
+        h
+    } else {
+        let all: Vec<LinkRec> = links.iter().chain(&closing).cloned().collect();
+        Hierarchy::compile(prep.basis.n(), patches.len(), &all)
+    };
     let system = System::new(h, &prep.basis, patches);
     let standard = match cfg.decomposition {
         Decomposition::Standard => Some(StandardSystem::from_system(&system, &prep.basis)?),
@@ -758,7 +772,8 @@ pub(crate) fn solve_links(
     stats.time_solve += t_sol.elapsed();
     stats.elements = system.h.node_count();
     stats.leaves = system.h.leaves.len();
-    stats.links = system.h.link_count();
+    stats.links = system.h.link_count() - closing.len();
+    stats.closure_links = closing.len();
     [stats.cells_empty, stats.cells_partial, stats.cells_full] = system.coverage_counts;
     stats.kernel_evals = ctx.kernel_evals.load(std::sync::atomic::Ordering::Relaxed);
     stats.rays = ctx.rays.load(std::sync::atomic::Ordering::Relaxed);

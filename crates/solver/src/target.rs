@@ -302,7 +302,13 @@ pub fn solve_to_target(scene: &Scene, cfg: &TargetConfig) -> Result<TargetOutcom
         }
         // Mark (Dörfler) among the links that can still be split.
         let h = &sol.system.h;
-        let all = h.links();
+        // Closure links are rebuilt by every solve: neither marked nor kept.
+        let (all, link_error): (Vec<LinkRec>, Vec<f64>) = h
+            .links()
+            .into_iter()
+            .zip(est.link_error.iter().copied())
+            .filter(|(l, _)| !crate::closure::is_closure_link(&sol.patches, l))
+            .unzip();
         let splittable: Vec<bool> = all
             .iter()
             .map(|l| {
@@ -310,7 +316,7 @@ pub fn solve_to_target(scene: &Scene, cfg: &TargetConfig) -> Result<TargetOutcom
                     || hierarchy::can_split(&ctx, &l.e, &params)
             })
             .collect();
-        let marked = dorfler(&est.link_error, &splittable, cfg.bulk);
+        let marked = dorfler(&link_error, &splittable, cfg.bulk);
         let last = round + 1 == cfg.max_rounds;
         if !marked.iter().any(|&m| m) || last {
             let reason = if last {

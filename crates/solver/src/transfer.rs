@@ -56,13 +56,14 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
 use wavelux_geometry::Accel;
-use wavelux_geometry::formfactor::{area_form_factor, newell};
+use wavelux_geometry::formfactor::area_form_factor;
 use wavelux_quadrature::{Corner, GaussLegendre, RuleNd, SquarePair, singular::square_pair_rule};
 
 use crate::basis::TreeBasis;
 use crate::error::SolverError;
+use crate::exact::{self, Piece};
 use crate::mask::Coverage;
-use crate::support::{Patch, SupportMap};
+use crate::support::Patch;
 
 /// How visibility enters the transfer blocks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -150,6 +151,8 @@ pub struct TransferCtx<'a> {
     vertex_rules: Vec<RuleNd>,
     /// Identical-square rule (self pairs of curved patches).
     identical_rule: RuleNd,
+    /// Rules of the exact parts ([`crate::exact`]).
+    rules: exact::Rules,
     /// Kernel evaluations so far.
     pub kernel_evals: AtomicU64,
     /// Shadow rays so far.
@@ -254,7 +257,12 @@ impl<'a> TransferCtx<'a> {
         }
         let identical_rule = square_pair_rule(SquarePair::Identical, opts.singular_order)
             .map_err(dep("quadrature"))?;
+        let rules = exact::Rules::new().ok_or_else(|| SolverError::Dependency {
+            what: "quadrature",
+            message: "Gauss–Legendre rules of orders 3, 4, 8".into(),
+        })?;
         Ok(Self {
+            rules,
             identical_rule,
             patches,
             accel,
@@ -324,29 +332,104 @@ impl<'a> TransferCtx<'a> {
     }
 
     /// The transfer block (`n × n`, `[a_receiver * n + b_emitter]`) of the node pair.
-    /// Returns the block, kernel evaluations and rays used.
+    ///
+    /// The quadrature (regular Gauss, singular rules, near-field splitting) gives the
+    /// block with visibility `T_v` and, from the same samples, the unoccluded block
+    /// `T_u`. Where both nodes are planar polygons and the emitter is all real, the
+    /// entries that carry energy are also known exactly without occlusion
+    /// ([`Self::exact_parts`]): the constant–constant entry from the contour-integral
+    /// form factor, the receiver moments against the constant emitter and the
+    /// emitter moments against the constant receiver from Lambert's point-to-polygon
+    /// formula at the Gauss points. Those entries become `T_v + α (X − T_u)` with
+    /// `α = T_v[0,0] / T_u[0,0]` the kernel-weighted visible fraction of the pair:
+    /// exact when the pair is unoccluded, zero when it is blocked, and never more than
+    /// the exact unoccluded value. Every form-factor row therefore sums to at most one
+    /// and to exactly one in a closed enclosure, whatever the quadrature's error.
     pub fn block(&self, r: &Region, e: &Region) -> Vec<f64> {
         let n = self.basis.n();
-        let mut out = vec![0.0; n * n];
+        let nn = n * n;
+        let mut acc = vec![0.0; 2 * nn];
         let mut evals = 0u64;
         let mut rays = 0u64;
         let with_vis = self.visibility == Visibility::InQuadrature;
-        self.accumulate(r, e, r, e, 0, with_vis, &mut out, &mut evals, &mut rays);
+        self.accumulate(r, e, r, e, 0, with_vis, &mut acc, &mut evals, &mut rays);
         let pr = &self.patches[r.patch];
         let pe = &self.patches[e.patch];
         let ar = pr.support.area * r.h * r.h;
         let ae = pe.support.area * e.h * e.h;
         let scale = 1.0 / (ar * ae).sqrt();
-        let mut alpha = 1.0;
-        if self.visibility == Visibility::Fractional {
-            alpha = self.fractional_visibility(r, e, &mut rays);
+        for v in &mut acc {
+            *v *= scale;
         }
-        for v in &mut out {
-            *v *= scale * alpha;
+        let unocc = acc.split_off(nn);
+        let mut out = acc;
+        let mut frac = None;
+        if self.visibility == Visibility::Fractional {
+            let f = self.fractional_visibility(r, e, &mut rays);
+            for (o, u) in out.iter_mut().zip(&unocc) {
+                *o = f * u;
+            }
+            frac = Some(f);
+        }
+        if let Some(x) = self.exact_parts(r, e, &mut evals) {
+            let alpha = match (self.visibility, frac) {
+                (_, Some(f)) => f,
+                (Visibility::Off, _) => 1.0,
+                _ if unocc[0] > 0.0 => (out[0] / unocc[0]).clamp(0.0, 1.0),
+                // No Gauss sample pair faces the other (grazing pieces): the exact part
+                // is tiny; take the visible fraction of fixed rays.
+                _ => self.fractional_visibility(r, e, &mut rays),
+            };
+            for (idx, exact) in x.entries(n) {
+                out[idx] += alpha * (exact * scale - unocc[idx]);
+            }
         }
         self.kernel_evals.fetch_add(evals, Ordering::Relaxed);
         self.rays.fetch_add(rays, Ordering::Relaxed);
         out
+    }
+
+    /// The exactly known unoccluded parts of the block of two planar nodes (see
+    /// [`crate::exact`]), unnormalised (`∫∫ ψ_a G ψ_b` with the unit-square basis, i.e.
+    /// before the `1/√(|R| |E|)` factor): `∫_R ∫_E G`, the receiver moments
+    /// `∫_R ψ_a(x) F(x → E) dA_x` and, when the emitter node is all real, the emitter
+    /// moments `∫_E ψ_b(y) F(y → R) dA_y`.
+    fn exact_parts(&self, r: &Region, e: &Region, evals: &mut u64) -> Option<ExactParts> {
+        let (pr, pe) = self.exact_pieces(r, e)?;
+        let receiver = self.exact_moments(r, &pe, evals)?;
+        let pat = &self.patches[e.patch];
+        let whole =
+            pat.support.mask.is_none() || pat.support.coverage(e.s0, e.t0, e.h) == Coverage::Full;
+        let emitter = if whole {
+            self.exact_moments(e, &pr, evals)
+        } else {
+            None
+        };
+        let constant = self.exact_constant(&pr, &pe)?;
+        (constant.is_finite() && constant >= 0.0).then_some(ExactParts {
+            constant,
+            receiver,
+            emitter,
+        })
+    }
+
+    /// The exact pieces of a receiver node and an emitter node (its real part), or
+    /// `None` where either has no exact form ([`exact::piece`]).
+    pub(crate) fn exact_pieces(&self, r: &Region, e: &Region) -> Option<(Piece, Piece)> {
+        Some((
+            exact::piece(&self.patches[r.patch], r, false)?,
+            exact::piece(&self.patches[e.patch], e, true)?,
+        ))
+    }
+
+    /// `∫_R ∫_E G` of two exact pieces ([`exact::constant`]).
+    pub(crate) fn exact_constant(&self, r: &Piece, e: &Piece) -> Option<f64> {
+        exact::constant(self.patches, &self.rules, r, e)
+    }
+
+    /// `∫_g ψ_a(x) F(x → P) dA_x` ([`exact::moments`]).
+    pub(crate) fn exact_moments(&self, g: &Region, p: &Piece, evals: &mut u64) -> Option<Vec<f64>> {
+        exact::moments(self.patches, self.basis, &self.rules, g, p, evals)
     }
 
     /// Visible fraction from 16 fixed ray pairs between 4×4 grids (Hanrahan 1991).
@@ -470,7 +553,7 @@ impl<'a> TransferCtx<'a> {
     ) {
         let pr = &self.patches[rs.patch];
         let pe = &self.patches[es.patch];
-        let exact = match (piece_polygon(pr, rs), piece_polygon(pe, es)) {
+        let exact = match (exact::node_polygon(pr, rs), exact::node_polygon(pe, es)) {
             (Some(a), Some(b)) => area_form_factor(&a, &b).ok(),
             _ => None,
         };
@@ -479,40 +562,15 @@ impl<'a> TransferCtx<'a> {
         let exact = exact.filter(|_| {
             pe.support.mask.is_none() || pe.support.coverage(es.s0, es.t0, es.h) == Coverage::Full
         });
-        let Some(exact) = exact.filter(|v| v.is_finite() && *v >= 0.0) else {
-            self.regular(rn, en, rs, es, with_vis, out, evals, rays);
-            return;
-        };
-        // Unoccluded Gauss value of ∫∫ G over the pieces.
-        let q = self.gx.len();
-        let ar = pr.support.area * rs.h * rs.h;
-        let mut gauss = 0.0;
-        for jt in 0..q {
-            for js in 0..q {
-                let x = pr
-                    .support
-                    .point(rs.s0 + rs.h * self.gx[js], rs.t0 + rs.h * self.gx[jt]);
-                let wx = self.gw[js] * self.gw[jt] * ar;
-                for kt in 0..q {
-                    for ks in 0..q {
-                        let y = pe
-                            .support
-                            .point(es.s0 + es.h * self.gx[ks], es.t0 + es.h * self.gx[kt]);
-                        *evals += 1;
-                        let g = kernel(x, pr.support.normal, y, pe.support.normal);
-                        let wy = self.emitter_weight(pe, es, ks, kt);
-                        gauss += wx * wy * g;
-                    }
-                }
-            }
-        }
-        if gauss <= 0.0 {
-            self.regular(rn, en, rs, es, with_vis, out, evals, rays);
-            return;
-        }
         let mut tmp = vec![0.0; out.len()];
         self.regular(rn, en, rs, es, with_vis, &mut tmp, evals, rays);
-        let scale = exact / gauss;
+        // The unoccluded constant entry of the pieces' block (ψ_0 = 1) is the Gauss
+        // value of ∫∫ G over the pieces.
+        let gauss = tmp[out.len() / 2];
+        let scale = match exact {
+            Some(x) if x.is_finite() && x >= 0.0 && gauss > 0.0 => x / gauss,
+            _ => 1.0,
+        };
         for (o, t) in out.iter_mut().zip(&tmp) {
             *o += scale * t;
         }
@@ -632,7 +690,7 @@ impl<'a> TransferCtx<'a> {
             let (x, nx) = pr.support.point_normal(s, t);
             let (y, ny) = pe.support.point_normal(u, v);
             *evals += 1;
-            let mut g = kernel(x, nx, y, ny);
+            let g = kernel(x, nx, y, ny);
             if g == 0.0 {
                 continue;
             }
@@ -646,21 +704,25 @@ impl<'a> TransferCtx<'a> {
             } else {
                 y
             };
-            if with_vis && !self.visible(vx, pr, vy, pe, rays) {
-                g = 0.0;
-            }
-            if g == 0.0 {
-                continue;
-            }
+            let visible = !with_vis || self.visible(vx, pr, vy, pe, rays);
             self.basis
                 .eval((s - rn.s0) / rn.h, (t - rn.t0) / rn.h, &mut br[..n]);
             self.basis
                 .eval((u - en.s0) / en.h, (v - en.t0) / en.h, &mut be[..n]);
             let f = w * ar * pe.support.jacobian(u, v) * es.h * es.h * g;
+            let (vis, unocc) = out.split_at_mut(n * n);
             for a in 0..n {
                 let fa = f * br[a];
                 for b in 0..n {
-                    out[a * n + b] += fa * be[b];
+                    unocc[a * n + b] += fa * be[b];
+                }
+            }
+            if visible {
+                for a in 0..n {
+                    let fa = f * br[a];
+                    for b in 0..n {
+                        vis[a * n + b] += fa * be[b];
+                    }
                 }
             }
         }
@@ -683,12 +745,16 @@ impl<'a> TransferCtx<'a> {
         let pe = &self.patches[es.patch];
         let (xr, vr) = self.side_samples(pr, rn, rs, false, false);
         let (xe, ve) = self.side_samples(pe, en, es, true, rs == es);
-        let mut tmp = vec![0.0; n];
+        // Emitter integrals at one receiver point: with visibility, unoccluded.
+        let mut tv = vec![0.0; n];
+        let mut tu = vec![0.0; n];
+        let (vis, unocc) = out.split_at_mut(n * n);
         for (i, sr) in xr.iter().enumerate() {
             if sr.w == 0.0 {
                 continue;
             }
-            tmp.iter_mut().for_each(|v| *v = 0.0);
+            tv.iter_mut().for_each(|v| *v = 0.0);
+            tu.iter_mut().for_each(|v| *v = 0.0);
             for (j, se) in xe.iter().enumerate() {
                 if se.w == 0.0 {
                     continue;
@@ -698,32 +764,31 @@ impl<'a> TransferCtx<'a> {
                 if g == 0.0 {
                     continue;
                 }
-                if with_vis && !self.visible(sr.v, pr, se.v, pe, rays) {
-                    continue;
-                }
                 let f = g * se.w;
+                let psi = &ve[j * n..][..n];
                 for b in 0..n {
-                    tmp[b] += f * ve[j * n + b];
+                    tu[b] += f * psi[b];
+                }
+                if !with_vis || self.visible(sr.v, pr, se.v, pe, rays) {
+                    for b in 0..n {
+                        tv[b] += f * psi[b];
+                    }
                 }
             }
             for a in 0..n {
                 let fa = sr.w * vr[i * n + a];
                 for b in 0..n {
-                    out[a * n + b] += fa * tmp[b];
+                    vis[a * n + b] += fa * tv[b];
+                    unocc[a * n + b] += fa * tu[b];
                 }
             }
         }
     }
 
-    /// Weight of emitter Gauss point `(ks, kt)` of the sub-square `es`: Gauss weight ×
-    /// area element × real fraction of the point's Gauss cell (VirtualMesh §4.2).
-    fn emitter_weight(&self, pe: &Patch, es: &Region, ks: usize, kt: usize) -> f64 {
-        weight_in(pe, es, (&self.gx, &self.gw, &self.gc), ks, kt)
-    }
-
     /// The `q×q` Gauss samples of a sub-square: point, normal, ṽ point and weight
     /// (receivers: the whole support's `area·h²`, VirtualMesh §4.2 "S is a receiver";
-    /// emitters: [`Self::emitter_weight`]), and the node's basis values there.
+    /// emitters: Gauss weight × area element × real fraction of the point's Gauss cell,
+    /// VirtualMesh §4.2), and the node's basis values there.
     fn side_samples(
         &self,
         p: &Patch,
@@ -873,37 +938,6 @@ fn binom(n: usize, k: usize) -> f64 {
     r
 }
 
-/// The exact planar polygon of a sub-square's image (parallelogram and triangle
-/// supports only), counter-clockwise about the support's normal, with collapsed
-/// corners removed.
-fn piece_polygon(p: &Patch, r: &Region) -> Option<Vec<DVec3>> {
-    if !matches!(
-        p.support.map,
-        SupportMap::Parallelogram { .. } | SupportMap::Triangle { .. }
-    ) {
-        return None;
-    }
-    let c = p.support.corners(r.s0, r.t0, r.h);
-    let (_, rad) = p.support.bounding_sphere(r.s0, r.t0, r.h);
-    let tol = 1e-12 * rad.max(f64::MIN_POSITIVE);
-    let mut poly: Vec<DVec3> = Vec::with_capacity(4);
-    for v in c {
-        if poly.last().is_none_or(|l: &DVec3| (*l - v).length() > tol) {
-            poly.push(v);
-        }
-    }
-    while poly.len() > 1 && (poly[0] - poly[poly.len() - 1]).length() <= tol {
-        poly.pop();
-    }
-    if poly.len() < 3 {
-        return None;
-    }
-    if newell(&poly).dot(p.support.normal) < 0.0 {
-        poly.reverse();
-    }
-    Some(poly)
-}
-
 fn sample_points(p: &Patch, r: &Region) -> Vec<DVec3> {
     let mut v = p.support.corners(r.s0, r.t0, r.h).to_vec();
     if !p.support.is_affine() {
@@ -943,4 +977,28 @@ struct Sample {
     n: DVec3,
     v: DVec3,
     w: f64,
+}
+
+/// The exactly known unoccluded entries of a block (see [`TransferCtx::exact_parts`]).
+struct ExactParts {
+    /// `∫_R ∫_E G` (= `|R| F_RE`).
+    constant: f64,
+    /// `∫_R ψ_a F(x → E)`, `a = 0..n`.
+    receiver: Vec<f64>,
+    /// `∫_E ψ_b F(y → R)`, `b = 0..n` (when the emitter node is all real).
+    emitter: Option<Vec<f64>>,
+}
+
+impl ExactParts {
+    /// `(index into the n × n block, exact value)` of every known entry: `[0, 0]`,
+    /// `[a, 0]` and `[0, b]`.
+    fn entries(&self, n: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        std::iter::once((0, self.constant))
+            .chain((1..n).map(move |a| (a * n, self.receiver[a])))
+            .chain(
+                self.emitter
+                    .iter()
+                    .flat_map(move |m| (1..n).map(move |b| (b, m[b]))),
+            )
+    }
 }

@@ -1,7 +1,9 @@
 //! Two-patch configurations against the analytic catalog (Howell C-11, C-14, C-40):
 //! with a black emitter of exitance `E` the receiver's average radiosity is exactly
-//! `ρ F E`. The observed error is printed for each `(ε, max_level)` and must shrink
-//! (or stay at quadrature accuracy) as `ε` decreases and levels grow.
+//! `ρ F E`. Link blocks carry the exact constant parts of their pieces, so every run is
+//! accurate whatever `(ε, max_level)`: to rounding where every link joins leaves, and
+//! otherwise to the closure links' `δ (B_E − B_i)` (see `wavelux_solver::closure`),
+//! below 1e-4 here.
 
 use glam::DVec3;
 use wavelux_geometry::formfactor::{coaxial_disks, parallel_rectangles, perpendicular_rectangles};
@@ -47,8 +49,8 @@ fn check(name: &str, scene: &Scene, f: f64, tol: f64) {
     for (eps, level, basis) in [
         (1e-2, 1u8, BasisKind::Haar),
         (1e-3, 3, BasisKind::Haar),
-        (1e-4, 4, BasisKind::Haar),
-        (1e-3, 3, BasisKind::Multiwavelet(2)),
+        (1e-3, 2, BasisKind::Multiwavelet(2)),
+        (1e-3, 2, BasisKind::Multiwavelet(3)),
     ] {
         let cfg = SolverConfig {
             basis,
@@ -66,17 +68,9 @@ fn check(name: &str, scene: &Scene, f: f64, tol: f64) {
         );
         errs.push(err);
     }
-    // Coarse runs are within a loose bound, the error shrinks with ε and level, and
-    // the finest Haar run meets `tol`.
     for e in &errs {
-        assert!(*e < 1e-2, "{name}: relative error {e} above 1e-2");
+        assert!(*e < tol, "{name}: relative error {e} above {tol}: {errs:?}");
     }
-    assert!(errs[2] <= errs[0], "{name}: no convergence: {errs:?}");
-    assert!(
-        errs[2] < tol,
-        "{name}: finest error {} above {tol}",
-        errs[2]
-    );
 }
 
 #[test]
@@ -85,7 +79,7 @@ fn parallel_rectangles_match_catalog() {
     let r = Shape::parallelogram(DVec3::ZERO, DVec3::X, 2.0 * DVec3::Y);
     let e = Shape::parallelogram(0.7 * DVec3::Z, 2.0 * DVec3::Y, DVec3::X);
     let f = parallel_rectangles(1.0, 2.0, 0.7).unwrap();
-    check("parallel", &two_patch(r, e), f, 1e-6);
+    check("parallel", &two_patch(r, e), f, 1e-4);
 }
 
 #[test]
@@ -103,5 +97,5 @@ fn coaxial_disks_match_catalog() {
     let e = disk(DVec3::new(0.0, 0.0, 0.5), 0.4, false);
     // Receiver → emitter: the catalog gives F from disk r1 to r2.
     let f = coaxial_disks(0.6, 0.4, 0.5).unwrap();
-    check("coaxial disks", &two_patch(r, e), f, 1e-3);
+    check("coaxial disks", &two_patch(r, e), f, 1e-4);
 }

@@ -1,0 +1,149 @@
+//! Closure of the hierarchical operator: every leaf's form-factor row sums to exactly
+//! what its links see (issue 11 §1; the hierarchical operator of Hanrahan et al. 1991
+//! and Gortler et al. 1993 in Ziegler §2.2.3's non-standard form).
+//!
+//! A link between a receiver node `R` and an emitter node `E` carries the projection of
+//! the kernel onto the functions of `R` and `E`; pushed down to a leaf `i ⊂ R` it gives
+//! `i` the part of `x ↦ F(x → E)` that the functions of `R` resolve, not `F` itself.
+//! The leaf's row sum — its irradiance when every surface has unit radiosity — is
+//! therefore off by the projection error of its ancestors' links (about the refinement
+//! threshold): in a closed box a leaf near a wall receives the coarse average of its
+//! view of the far wall, which is larger than its own, and the row sums exceed one. The
+//! discrete operator then has a spectral radius above one and Picard diverges at
+//! deeper levels, and `1/(1 − ρ)` amplifies the excess in a white furnace.
+//!
+//! Where a link's pieces are planar polygons the leaf's exact unoccluded share is
+//! known, `∫_i φ_a(x) F(x → E) dA` (Lambert's point-to-polygon form factor at the
+//! leaf's Gauss points), and so is the link's unoccluded column that is pushed down to
+//! it. The defect `δ_i` (exact minus pushed, times the link's visible fraction `α`, see
+//! [`crate::TransferCtx::block`], summed over the links of `i` and its ancestors) is
+//! returned to the leaf as a reciprocal *closure
+//! link* from the leaf to itself with the symmetric block
+//! `C = (δ e₀ᵀ + e₀ δᵀ − δ₀ e₀ e₀ᵀ)/√|i|`, which maps the leaf's unit radiosity
+//! `√|i| e₀` to `δ_i`. The corrected operator sends a unit radiosity field to exactly
+//! the row sums of its links, which are `≤ 1` (a sum of point form factors to disjoint
+//! pieces, times visible fractions) and `= 1` in a closed enclosure at every Gauss
+//! point; the correction is symmetric in the orthonormal coefficients, like the links,
+//! so in a closed enclosure energy is conserved as well (`cᵀK = cᵀ`), and for a
+//! non-negative (Haar) operator the Perron root is exactly the largest row sum.
+//!
+//! What it costs in accuracy: the defect is charged against the leaf's own radiosity
+//! `B_i` instead of its ancestors' emitters `B_E`, so it is exact for uniform radiosity
+//! and otherwise trades the projection error `δ (B_E)` for `δ (B_E − B_i)`.
+
+use rayon::prelude::*;
+
+use crate::hierarchy::{Hierarchy, LinkRec, NodeKey};
+use crate::transfer::TransferCtx;
+
+/// Whether `l` is a closure link: a node linked to itself on a planar support (a plane
+/// sees none of itself, so no transfer link is ever such a pair). Refinement must drop
+/// these before splitting (they are rebuilt with every compiled hierarchy).
+pub fn is_closure_link(patches: &[crate::support::Patch], l: &LinkRec) -> bool {
+    l.r == l.e && patches[l.r.patch as usize].support.is_planar()
+}
+
+/// The closure links of the links `links` compiled into `h` (see the module docs), one
+/// per leaf with a non-zero defect, in leaf order. Links whose pieces are not planar
+/// polygons (curved, disk, partial virtual pieces) contribute no defect.
+pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) -> Vec<LinkRec> {
+    let n = h.n;
+    let basis = ctx.basis();
+    let node_of = |k: &NodeKey| h.keys.binary_search(k).ok();
+    let parts: Vec<Vec<(u32, Vec<f64>)>> = links
+        .par_iter()
+        .map(|l| {
+            let mut out = Vec::new();
+            let (Some(ri), Some(_)) = (node_of(&l.r), node_of(&l.e)) else {
+                return out;
+            };
+            let (rr, er) = (l.r.region(), l.e.region());
+            let Some((pr, pe)) = ctx.exact_pieces(&rr, &er) else {
+                return out;
+            };
+            let area = |k: &NodeKey| {
+                ctx.patches[k.patch as usize].support.area * 0.25f64.powi(k.level as i32)
+            };
+            let (ar, ae) = (area(&l.r), area(&l.e));
+            let mut evals = 0u64;
+            // The unoccluded exact column the link's block was corrected to, as
+            // irradiance coefficients of R from unit radiosity on E.
+            let Some(mut v) = ctx.exact_moments(&rr, &pe, &mut evals) else {
+                return out;
+            };
+            let Some(exact) = ctx.exact_constant(&pr, &pe) else {
+                return out;
+            };
+            let unit = exact / (ar * ae).sqrt();
+            if !(unit > 0.0 && unit.is_finite()) {
+                return out;
+            }
+            let alpha = (l.block[0] / unit).clamp(0.0, 1.0);
+            v[0] = exact;
+            v.iter_mut().for_each(|x| *x /= ar.sqrt());
+            let mut stack = vec![(ri, v)];
+            while let Some((i, v)) = stack.pop() {
+                let ch = h.children[i];
+                if ch[0] == u32::MAX {
+                    let k = h.keys[i];
+                    let kr = k.region();
+                    let Some(mut m) = ctx.exact_moments(&kr, &pe, &mut evals) else {
+                        continue;
+                    };
+                    // The leaf's constant entry as exactly as the link's own (the
+                    // contour integral between polygons).
+                    if let Some(c) = ctx
+                        .exact_pieces(&kr, &er)
+                        .and_then(|(pl, _)| ctx.exact_constant(&pl, &pe))
+                    {
+                        m[0] = c;
+                    }
+                    let s = area(&k).sqrt();
+                    let d: Vec<f64> = m.iter().zip(&v).map(|(m, p)| alpha * (m / s - p)).collect();
+                    out.push((i as u32, d));
+                    continue;
+                }
+                for (c, &ci) in ch.iter().enumerate() {
+                    let m = basis.child_matrix(c);
+                    let w: Vec<f64> = (0..n)
+                        .map(|b| (0..n).map(|a| m[a * n + b] * v[a]).sum())
+                        .collect();
+                    stack.push((ci as usize, w));
+                }
+            }
+            out
+        })
+        .collect();
+    // Sum per leaf in link order (deterministic whatever the thread count).
+    let mut defect = vec![0.0; h.node_count() * n];
+    let mut touched = vec![false; h.node_count()];
+    for (i, d) in parts.into_iter().flatten() {
+        touched[i as usize] = true;
+        for (acc, v) in defect[i as usize * n..][..n].iter_mut().zip(&d) {
+            *acc += v;
+        }
+    }
+    let mut out = Vec::new();
+    for (i, k) in h.keys.iter().enumerate() {
+        if !touched[i] {
+            continue;
+        }
+        let d = &defect[i * n..][..n];
+        if d.iter().all(|v| *v == 0.0) {
+            continue;
+        }
+        let s = (ctx.patches[k.patch as usize].support.area * 0.25f64.powi(k.level as i32)).sqrt();
+        let mut block = vec![0.0; n * n];
+        for a in 0..n {
+            block[a * n] += d[a] / s;
+            block[a] += d[a] / s;
+        }
+        block[0] -= d[0] / s;
+        out.push(LinkRec {
+            r: *k,
+            e: *k,
+            block,
+        });
+    }
+    out
+}

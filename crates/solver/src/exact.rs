@@ -1,0 +1,742 @@
+//! Exact unoccluded transfer of planar pieces (issue 11 §1): what a link block's
+//! energy-carrying entries must be, computed without the error of a tensor Gauss rule
+//! on the `1/r²` kernel.
+//!
+//! - A node of a planar support is a [`Piece`]: signed planar polygons (parallelogram
+//!   and triangle supports; the real part of a node of a virtual polygon support, its
+//!   trim loops clipped to the node's parallelogram when they are straight) or a planar
+//!   region with curved edges (a node of a disk support: the images of the four edges
+//!   of its parameter square under the concentric map).
+//! - The point-to-piece form factor `F(x → P) = ∫_P G dA_y` (unoccluded) is exact:
+//!   Lambert's formula `F = (1/2π) Σ β_i n·ĝ_i` on polygons (after clipping to the
+//!   tangent plane of `x`, `wavelux-geometry`), and its contour form
+//!   `F = (1/2π) |∮ n_x · (r × dr)/|r|²|` on curved edges, integrated by Gauss–Legendre
+//!   panels bisected where `x` comes closer to a panel than its length (the integrand is
+//!   analytic elsewhere).
+//! - Moments `∫_g ψ_a(x) F(x → P) dA_x` over a node `g` (its unit-square basis `ψ_a`)
+//!   come from the node's 4×4 Gauss rule, which integrates every basis function
+//!   exactly, so in a closed enclosure (where `Σ_P F(x → P) = 1` at every point) the
+//!   moments of a node against all the pieces it sees add up to exactly those of the
+//!   constant function whatever the rule's error on each piece.
+//! - `∫_R ∫_E G` is the contour integral `(1/2π) ∮∮ ln r dx·dy` ([`constant`]):
+//!   closed-form edge pairs of `wavelux-geometry` between polygons (exact and symmetric
+//!   for any relative position: shared edges, vertices, T-junctions), adaptive Gauss
+//!   panels when a boundary is curved.
+
+use glam::{DVec2, DVec3};
+use wavelux_geometry::Edge2;
+use wavelux_geometry::formfactor::{area_form_factor, newell, point_to_polygon};
+use wavelux_quadrature::GaussLegendre;
+
+use crate::basis::TreeBasis;
+use crate::mask::Coverage;
+use crate::support::{Patch, SupportMap};
+use crate::transfer::Region;
+
+/// Quadrature rules of the exact parts, built once per transfer context.
+#[derive(Debug, Clone)]
+pub struct Rules {
+    g4: (Vec<f64>, Vec<f64>),
+    g8: (Vec<f64>, Vec<f64>),
+}
+
+impl Rules {
+    /// The 4- and 8-point Gauss–Legendre rules on `[0, 1]`.
+    pub fn new() -> Option<Self> {
+        let g = |n| GaussLegendre::new(n).ok().map(|g| g.unit());
+        Some(Self {
+            g4: g(4)?,
+            g8: g(8)?,
+        })
+    }
+}
+
+/// The exactly integrable image of a node (see the module docs).
+#[derive(Debug, Clone)]
+pub enum Piece {
+    /// Planar polygons with signs (`+1` for outer loops, `−1` for holes), each
+    /// counter-clockwise about `normal`, the front normal of the piece's plane.
+    Polygons {
+        /// `(vertices, sign)`.
+        loops: Vec<(Vec<DVec3>, f64)>,
+        /// Front normal.
+        normal: DVec3,
+        /// A point of the plane.
+        origin: DVec3,
+    },
+    /// A node of a disk support: the region bounded by the images of its square's
+    /// edges.
+    Curved {
+        /// The node.
+        region: Region,
+        /// Front normal.
+        normal: DVec3,
+        /// A point of the plane.
+        origin: DVec3,
+    },
+}
+
+impl Piece {
+    fn plane(&self) -> (DVec3, DVec3) {
+        match self {
+            Piece::Polygons { normal, origin, .. } | Piece::Curved { normal, origin, .. } => {
+                (*normal, *origin)
+            }
+        }
+    }
+}
+
+/// The exact polygon of a node of a parallelogram or triangle support,
+/// counter-clockwise about the support's normal, collapsed corners removed.
+pub fn node_polygon(p: &Patch, r: &Region) -> Option<Vec<DVec3>> {
+    if !matches!(
+        p.support.map,
+        SupportMap::Parallelogram { .. } | SupportMap::Triangle { .. }
+    ) {
+        return None;
+    }
+    let c = p.support.corners(r.s0, r.t0, r.h);
+    let (_, rad) = p.support.bounding_sphere(r.s0, r.t0, r.h);
+    let tol = 1e-12 * rad.max(f64::MIN_POSITIVE);
+    let mut poly: Vec<DVec3> = Vec::with_capacity(4);
+    for v in c {
+        if poly.last().is_none_or(|l: &DVec3| (*l - v).length() > tol) {
+            poly.push(v);
+        }
+    }
+    while poly.len() > 1 && (poly[0] - poly[poly.len() - 1]).length() <= tol {
+        poly.pop();
+    }
+    if poly.len() < 3 {
+        return None;
+    }
+    if newell(&poly).dot(p.support.normal) < 0.0 {
+        poly.reverse();
+    }
+    Some(poly)
+}
+
+/// The piece of node `g` of patch `p`. As an emitter (`real_only`) a node of a virtual
+/// support is its real part; as a receiver the whole square (virtual points receive,
+/// VirtualMesh §4.2). `None` where no exact form exists (curved supports, trims with
+/// arcs crossing the node, empty nodes).
+pub fn piece(p: &Patch, g: &Region, real_only: bool) -> Option<Piece> {
+    let sup = &p.support;
+    if !sup.is_planar() {
+        return None;
+    }
+    let normal = sup.normal;
+    match (&sup.map, &sup.mask) {
+        (SupportMap::Disk { .. }, None) => Some(Piece::Curved {
+            region: *g,
+            normal,
+            origin: sup.point(g.s0, g.t0),
+        }),
+        (SupportMap::Parallelogram { .. } | SupportMap::Triangle { .. }, mask) => {
+            let cov = match mask {
+                Some(_) if real_only => sup.coverage(g.s0, g.t0, g.h),
+                _ => Coverage::Full,
+            };
+            match cov {
+                Coverage::Empty => None,
+                Coverage::Full => {
+                    let poly = node_polygon(p, g)?;
+                    Some(Piece::Polygons {
+                        origin: poly[0],
+                        loops: vec![(poly, 1.0)],
+                        normal,
+                    })
+                }
+                Coverage::Partial => {
+                    let m = mask.as_ref()?;
+                    let w = [
+                        m.to_plane(g.s0, g.t0),
+                        m.to_plane(g.s0 + g.h, g.t0),
+                        m.to_plane(g.s0 + g.h, g.t0 + g.h),
+                        m.to_plane(g.s0, g.t0 + g.h),
+                    ];
+                    let mut loops = Vec::new();
+                    for lp in &m.region().loops {
+                        let mut pts = Vec::with_capacity(lp.edges.len());
+                        for e in &lp.edges {
+                            match e {
+                                Edge2::Segment { a, .. } => pts.push(*a),
+                                Edge2::Arc { .. } => return None,
+                            }
+                        }
+                        let clipped = clip_convex(&pts, &w);
+                        if clipped.len() < 3 {
+                            continue;
+                        }
+                        let sign = signed_area(&clipped).signum();
+                        let mut poly: Vec<DVec3> = clipped
+                            .iter()
+                            .map(|q| {
+                                let (s, t) = m.from_plane(*q);
+                                sup.point(s, t)
+                            })
+                            .collect();
+                        if newell(&poly).dot(normal) < 0.0 {
+                            poly.reverse();
+                        }
+                        loops.push((poly, sign));
+                    }
+                    let origin = sup.point(g.s0, g.t0);
+                    Some(Piece::Polygons {
+                        loops,
+                        normal,
+                        origin,
+                    })
+                }
+            }
+        }
+        _ => None,
+    }
+}
+
+fn signed_area(p: &[DVec2]) -> f64 {
+    let mut a = 0.0;
+    for i in 0..p.len() {
+        a += p[i].perp_dot(p[(i + 1) % p.len()]);
+    }
+    0.5 * a
+}
+
+/// Sutherland–Hodgman clip of a closed polygon (either orientation) against the convex
+/// quadrilateral `w` (either orientation). A concave subject may come back with
+/// zero-width bridges along `w`'s border; they cancel in every contour integral.
+fn clip_convex(subject: &[DVec2], w: &[DVec2; 4]) -> Vec<DVec2> {
+    let orient = signed_area(w).signum();
+    let mut out = subject.to_vec();
+    for i in 0..4 {
+        let (a, b) = (w[i], w[(i + 1) % 4]);
+        let side = |p: DVec2| orient * (b - a).perp_dot(p - a);
+        let input = std::mem::take(&mut out);
+        for j in 0..input.len() {
+            let (p, q) = (input[j], input[(j + 1) % input.len()]);
+            let (sp, sq) = (side(p), side(q));
+            if sp >= 0.0 {
+                out.push(p);
+            }
+            if (sp > 0.0 && sq < 0.0) || (sp < 0.0 && sq > 0.0) {
+                out.push(p + (q - p) * (sp / (sp - sq)));
+            }
+        }
+        if out.is_empty() {
+            break;
+        }
+    }
+    out
+}
+
+/// `F(x → P)` for a receiver point `x` with unit normal `nx` (see the module docs):
+/// zero where `x` is not in front of `P`; `None` where the curved contour form does not
+/// apply (a curved piece crossing the tangent plane of `x`).
+pub fn point_form_factor(
+    patches: &[Patch],
+    rules: &Rules,
+    piece: &Piece,
+    x: DVec3,
+    nx: DVec3,
+) -> Option<f64> {
+    let (n, o) = piece.plane();
+    if n.dot(x - o) <= 0.0 {
+        return Some(0.0);
+    }
+    match piece {
+        Piece::Polygons { loops, .. } => Some(
+            loops
+                .iter()
+                .map(|(p, s)| s * point_to_polygon(x, nx, p).unwrap_or(0.0))
+                .sum::<f64>()
+                .max(0.0),
+        ),
+        Piece::Curved { region, .. } => {
+            let sup = &patches[region.patch].support;
+            let mut total = 0.0;
+            for (a, b) in square_edges(region) {
+                let mut ts = vec![0.0, 1.0];
+                ts.extend(disk_kinks(a, b));
+                ts.sort_by(f64::total_cmp);
+                for w in ts.windows(2) {
+                    let (pa, pb) = (a + (b - a) * w[0], a + (b - a) * w[1]);
+                    total += curve_integral(sup, rules, x, nx, pa, pb, 0)?;
+                }
+            }
+            Some((total / (2.0 * std::f64::consts::PI)).abs())
+        }
+    }
+}
+
+/// The four edges of a node's square, counter-clockwise in `(s, t)`.
+fn square_edges(g: &Region) -> [(DVec2, DVec2); 4] {
+    let c = [
+        DVec2::new(g.s0, g.t0),
+        DVec2::new(g.s0 + g.h, g.t0),
+        DVec2::new(g.s0 + g.h, g.t0 + g.h),
+        DVec2::new(g.s0, g.t0 + g.h),
+    ];
+    std::array::from_fn(|i| (c[i], c[(i + 1) % 4]))
+}
+
+/// Parameters in `(0, 1)` where the segment `a → b` of the unit square crosses a
+/// diagonal, where the concentric map has a kink.
+fn disk_kinks(a: DVec2, b: DVec2) -> Vec<f64> {
+    let mut v = Vec::new();
+    // Diagonals s = t and s + t = 1.
+    let diagonals: [fn(DVec2) -> f64; 2] = [|p| p.x - p.y, |p| p.x + p.y - 1.0];
+    for f in diagonals {
+        let (fa, fb) = (f(a), f(b));
+        if fa * fb < 0.0 {
+            v.push(fa / (fa - fb));
+        }
+    }
+    v
+}
+
+/// `∫ n_x · (r × dr)/|r|²` along the image of the parameter segment `a → b` of a
+/// smooth piece of the support's boundary (8-point Gauss per panel; a panel closer to
+/// `x` than its chord is bisected, at most 40 times). `None` if a point of the curve
+/// lies behind the tangent plane of `x`.
+fn curve_integral(
+    sup: &crate::support::Support,
+    rules: &Rules,
+    x: DVec3,
+    nx: DVec3,
+    a: DVec2,
+    b: DVec2,
+    depth: u32,
+) -> Option<f64> {
+    let (pa, pb) = (sup.point(a.x, a.y), sup.point(b.x, b.y));
+    let chord = (pb - pa).length();
+    let mid = sup.point(0.5 * (a.x + b.x), 0.5 * (a.y + b.y));
+    let dist = seg_dist(x, pa, pb).min((mid - x).length());
+    if dist < chord && depth < 40 {
+        let m = 0.5 * (a + b);
+        return Some(
+            curve_integral(sup, rules, x, nx, a, m, depth + 1)?
+                + curve_integral(sup, rules, x, nx, m, b, depth + 1)?,
+        );
+    }
+    let (gx, gw) = &rules.g8;
+    let d = b - a;
+    let step = 1e-6;
+    let mut sum = 0.0;
+    for (u, w) in gx.iter().zip(gw) {
+        let p = a + d * *u;
+        let y = sup.point(p.x, p.y);
+        let r = y - x;
+        if nx.dot(r) < -1e-12 * r.length() {
+            return None;
+        }
+        // Tangent by a central difference along the (smooth) panel.
+        let (u0, u1) = ((u - step).max(0.0), (u + step).min(1.0));
+        let (q0, q1) = (a + d * u0, a + d * u1);
+        let dy = (sup.point(q1.x, q1.y) - sup.point(q0.x, q0.y)) / (u1 - u0);
+        sum += w * nx.dot(r.cross(dy)) / r.length_squared();
+    }
+    for p in [pa, pb] {
+        if nx.dot(p - x) < -1e-12 * (p - x).length() {
+            return None;
+        }
+    }
+    Some(sum)
+}
+
+fn seg_dist(x: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let d = b - a;
+    let l2 = d.length_squared();
+    let t = if l2 > 0.0 {
+        ((x - a).dot(d) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (a + t * d - x).length()
+}
+
+/// `∫_g ψ_a(x) F(x → P) dA_x`, `a = 0..n` (the unit-square basis of `g`), by the
+/// node's 4×4 Gauss rule (see the module docs). `None` where a point form factor does not exist.
+pub fn moments(
+    patches: &[Patch],
+    basis: &TreeBasis,
+    rules: &Rules,
+    g: &Region,
+    piece: &Piece,
+    evals: &mut u64,
+) -> Option<Vec<f64>> {
+    let mut out = vec![0.0; basis.n()];
+    rule_on(
+        patches, basis, rules, &rules.g4, g, g, piece, evals, &mut out,
+    )?;
+    Some(out)
+}
+
+/// Gauss `(x, w)` rule on the sub-square `sub` of node `g`: adds `Σ w F ψ` into `acc`.
+#[allow(clippy::too_many_arguments)]
+fn rule_on(
+    patches: &[Patch],
+    basis: &TreeBasis,
+    rules: &Rules,
+    rule: &(Vec<f64>, Vec<f64>),
+    g: &Region,
+    sub: &Region,
+    piece: &Piece,
+    evals: &mut u64,
+    acc: &mut [f64],
+) -> Option<()> {
+    let p = &patches[g.patch];
+    let (x, w) = rule;
+    let area = p.support.area * sub.h * sub.h;
+    let n = basis.n();
+    let mut psi = [0.0; 16];
+    for (jt, wt) in x.iter().zip(w) {
+        for (js, ws) in x.iter().zip(w) {
+            let (s, t) = (sub.s0 + sub.h * js, sub.t0 + sub.h * jt);
+            let (xp, nx) = p.support.point_normal(s, t);
+            *evals += 1;
+            let f = point_form_factor(patches, rules, piece, xp, nx)?;
+            if f == 0.0 {
+                continue;
+            }
+            basis.eval((s - g.s0) / g.h, (t - g.t0) / g.h, &mut psi[..n]);
+            let c = ws * wt * area * f;
+            for (a, v) in acc.iter_mut().zip(&psi[..n]) {
+                *a += c * v;
+            }
+        }
+    }
+    Some(())
+}
+
+/// `∫_R ∫_E G` of two pieces by the contour form `A_R F_RE = (1/2π) ∮∮ ln r dx·dy`
+/// (Schröder & Hanrahan 1993): `wavelux-geometry`'s closed-form edge pairs when both
+/// are polygons (signed loops, each counter-clockwise about its front normal; clipped
+/// to each other's half-spaces, so any relative position is exact); with a curved
+/// piece, tensor Gauss panels on the two boundaries, bisected while two panels are
+/// closer than their length (the integrand is analytic elsewhere). `None` where a curved
+/// piece crosses the other's plane (the contour form needs each piece entirely in
+/// front of the other).
+pub fn constant(patches: &[Patch], rules: &Rules, r: &Piece, e: &Piece) -> Option<f64> {
+    if let (Piece::Polygons { loops: lr, .. }, Piece::Polygons { loops: le, .. }) = (r, e) {
+        let mut sum = 0.0;
+        for (pr, sr) in lr {
+            for (pe, se) in le {
+                sum += sr * se * area_form_factor(pr, pe).ok()?;
+            }
+        }
+        return Some(sum.max(0.0));
+    }
+    let cr = curves(patches, r);
+    let ce = curves(patches, e);
+    let (nr, or) = r.plane();
+    let (ne, oe) = e.plane();
+    let behind = |cs: &[Curve<'_>], n: DVec3, o: DVec3| {
+        cs.iter().any(|c| {
+            (0..=8).any(|i| {
+                let p = c.at(i as f64 / 8.0);
+                n.dot(p - o) < -1e-9 * (p - o).length()
+            })
+        })
+    };
+    if behind(&cr, ne, oe) || behind(&ce, nr, or) {
+        return None;
+    }
+    let mut sum = 0.0;
+    for a in &cr {
+        for b in &ce {
+            sum += a.sign * b.sign * panel_pair(rules, a, (0.0, 1.0), b, (0.0, 1.0), 0);
+        }
+    }
+    Some((sum / (2.0 * std::f64::consts::PI)).abs())
+}
+
+/// A boundary curve of a piece: a straight segment, or the image of a parameter
+/// segment `a → b` under a planar support's map (smooth between its ends).
+struct Curve<'a> {
+    kind: CurveKind<'a>,
+    sign: f64,
+}
+
+enum CurveKind<'a> {
+    Segment(DVec3, DVec3),
+    Mapped(&'a crate::support::Support, DVec2, DVec2),
+}
+
+impl Curve<'_> {
+    fn at(&self, u: f64) -> DVec3 {
+        match &self.kind {
+            CurveKind::Segment(a, b) => *a + (*b - *a) * u,
+            CurveKind::Mapped(sup, a, b) => {
+                let p = *a + (*b - *a) * u;
+                sup.point(p.x, p.y)
+            }
+        }
+    }
+
+    fn tangent(&self, u: f64) -> DVec3 {
+        match &self.kind {
+            CurveKind::Segment(a, b) => *b - *a,
+            CurveKind::Mapped(..) => {
+                let step = 1e-6;
+                let (u0, u1) = ((u - step).max(0.0), (u + step).min(1.0));
+                (self.at(u1) - self.at(u0)) / (u1 - u0)
+            }
+        }
+    }
+}
+
+fn curves<'a>(patches: &'a [Patch], p: &Piece) -> Vec<Curve<'a>> {
+    match p {
+        Piece::Polygons { loops, .. } => loops
+            .iter()
+            .flat_map(|(poly, sign)| {
+                (0..poly.len()).map(move |i| Curve {
+                    kind: CurveKind::Segment(poly[i], poly[(i + 1) % poly.len()]),
+                    sign: *sign,
+                })
+            })
+            .collect(),
+        Piece::Curved { region, .. } => {
+            let sup = &patches[region.patch].support;
+            let mut v = Vec::new();
+            for (a, b) in square_edges(region) {
+                let mut ts = vec![0.0, 1.0];
+                ts.extend(disk_kinks(a, b));
+                ts.sort_by(f64::total_cmp);
+                for w in ts.windows(2) {
+                    v.push(Curve {
+                        kind: CurveKind::Mapped(sup, a + (b - a) * w[0], a + (b - a) * w[1]),
+                        sign: 1.0,
+                    });
+                }
+            }
+            v
+        }
+    }
+}
+
+/// `∫_{ua}∫_{vb} ln|A(u) − B(v)| A'(u)·B'(v) du dv` over the panels `ua` of `a` and `vb`
+/// of `b`: 8×8 Gauss when the panels are farther apart than their chords, else the
+/// longer one is bisected (at most 30 times).
+fn panel_pair(
+    rules: &Rules,
+    a: &Curve<'_>,
+    ua: (f64, f64),
+    b: &Curve<'_>,
+    vb: (f64, f64),
+    depth: u32,
+) -> f64 {
+    let (a0, a1) = (a.at(ua.0), a.at(ua.1));
+    let (b0, b1) = (b.at(vb.0), b.at(vb.1));
+    let (la, lb) = ((a1 - a0).length(), (b1 - b0).length());
+    let am = a.at(0.5 * (ua.0 + ua.1));
+    let bm = b.at(0.5 * (vb.0 + vb.1));
+    let dist = seg_seg_dist(a0, a1, b0, b1).min((am - bm).length());
+    if dist < la.max(lb) && depth < 30 {
+        if la >= lb {
+            let m = 0.5 * (ua.0 + ua.1);
+            return panel_pair(rules, a, (ua.0, m), b, vb, depth + 1)
+                + panel_pair(rules, a, (m, ua.1), b, vb, depth + 1);
+        }
+        let m = 0.5 * (vb.0 + vb.1);
+        return panel_pair(rules, a, ua, b, (vb.0, m), depth + 1)
+            + panel_pair(rules, a, ua, b, (m, vb.1), depth + 1);
+    }
+    let (gx, gw) = &rules.g8;
+    let (da, db) = (ua.1 - ua.0, vb.1 - vb.0);
+    let pts_b: Vec<(DVec3, DVec3)> = gx
+        .iter()
+        .map(|v| {
+            let v = vb.0 + db * v;
+            (b.at(v), b.tangent(v))
+        })
+        .collect();
+    let mut sum = 0.0;
+    for (u, wu) in gx.iter().zip(gw) {
+        let u = ua.0 + da * u;
+        let (p, tp) = (a.at(u), a.tangent(u));
+        for ((q, tq), wv) in pts_b.iter().zip(gw) {
+            let r = (p - *q).length();
+            if r > 0.0 {
+                sum += wu * wv * r.ln() * tp.dot(*tq);
+            }
+        }
+    }
+    sum * da * db
+}
+
+/// Distance between the segments `a0a1` and `b0b1`.
+fn seg_seg_dist(a0: DVec3, a1: DVec3, b0: DVec3, b1: DVec3) -> f64 {
+    let (d1, d2, r) = (a1 - a0, b1 - b0, a0 - b0);
+    let (a, e, f) = (d1.length_squared(), d2.length_squared(), d2.dot(r));
+    let ends = seg_dist(a0, b0, b1)
+        .min(seg_dist(a1, b0, b1))
+        .min(seg_dist(b0, a0, a1))
+        .min(seg_dist(b1, a0, a1));
+    if a <= 0.0 || e <= 0.0 {
+        return ends;
+    }
+    let (b, c) = (d1.dot(d2), d1.dot(r));
+    let den = a * e - b * b;
+    if den <= 1e-14 * a * e {
+        return ends;
+    }
+    let s = ((b * f - c * e) / den).clamp(0.0, 1.0);
+    let t = ((b * s + f) / e).clamp(0.0, 1.0);
+    ends.min((a0 + d1 * s - (b0 + d2 * t)).length())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::support::{Side, Support};
+    use wavelux_geometry::formfactor::{coaxial_disks, point_to_parallel_disk};
+
+    fn patch(support: Support) -> Patch {
+        Patch {
+            surface: 0,
+            piece: 0,
+            side: Side::Front,
+            support,
+            reflectance: [0.5; 3],
+            emission: [0.0; 3],
+            prim: 0,
+        }
+    }
+
+    fn root(patch: usize) -> Region {
+        Region {
+            patch,
+            s0: 0.0,
+            t0: 0.0,
+            h: 1.0,
+        }
+    }
+
+    #[test]
+    fn disk_pieces_reproduce_the_catalogue() {
+        // Emitter: a disk of radius 1 at height h facing down; receivers: points and a
+        // coaxial disk of radius 0.6 facing up.
+        let rules = Rules::new().unwrap();
+        for h in [0.05, 1.0, 20.0] {
+            let patches = vec![
+                patch(Support::disk(
+                    DVec3::new(0.0, 0.0, h),
+                    DVec3::Y,
+                    DVec3::X,
+                    1.0,
+                )),
+                patch(Support::disk(DVec3::ZERO, DVec3::X, DVec3::Y, 0.6)),
+            ];
+            let e = piece(&patches[0], &root(0), true).unwrap();
+            for a in [0.0, 0.3, 0.99, 1.7] {
+                let f = point_form_factor(&patches, &rules, &e, DVec3::new(a, 0.0, 0.0), DVec3::Z)
+                    .unwrap();
+                let exact = point_to_parallel_disk(1.0, h, a).unwrap();
+                // The contour's tangent is a central difference (step 1e-6): ~1e-9.
+                assert!(
+                    (f - exact).abs() < 1e-8 * exact,
+                    "h {h} a {a}: {f} vs {exact}"
+                );
+            }
+            let r = piece(&patches[1], &root(1), false).unwrap();
+            let c = constant(&patches, &rules, &r, &e).unwrap();
+            let exact = coaxial_disks(0.6, 1.0, h).unwrap() * std::f64::consts::PI * 0.36;
+            assert!((c - exact).abs() < 1e-8 * exact, "h {h}: {c} vs {exact}");
+            // Reciprocity of the contour form.
+            let c2 = constant(&patches, &rules, &e, &r).unwrap();
+            assert!((c - c2).abs() < 1e-10 * c, "{c} vs {c2}");
+            // Sub-squares of the concentric map partition the disk: their point form
+            // factors add up.
+            let x = DVec3::new(0.2, -0.1, 0.0);
+            let whole = point_form_factor(&patches, &rules, &e, x, DVec3::Z).unwrap();
+            let mut parts = 0.0;
+            for c in 0..16 {
+                let g = Region {
+                    patch: 0,
+                    s0: 0.25 * (c % 4) as f64,
+                    t0: 0.25 * (c / 4) as f64,
+                    h: 0.25,
+                };
+                let p = piece(&patches[0], &g, true).unwrap();
+                parts += point_form_factor(&patches, &rules, &p, x, DVec3::Z).unwrap();
+            }
+            assert!((parts - whole).abs() < 1e-10 * whole, "{parts} vs {whole}");
+        }
+    }
+
+    #[test]
+    fn moments_of_a_closed_box_sum_to_those_of_the_constant() {
+        // The six inward faces of the unit cube: from every point of a face, the form
+        // factors to the other five sum to one, so the Gauss moments do too.
+        let basis = TreeBasis::new(crate::BasisKind::Multiwavelet(3)).unwrap();
+        let rules = Rules::new().unwrap();
+        let (x, y, z) = (DVec3::X, DVec3::Y, DVec3::Z);
+        let faces = [
+            (DVec3::ZERO, y, z),
+            (x, z, y),
+            (DVec3::ZERO, z, x),
+            (y, x, z),
+            (DVec3::ZERO, x, y),
+            (z, y, x),
+        ];
+        let patches: Vec<Patch> = faces
+            .iter()
+            .map(|&(o, u, v)| patch(Support::parallelogram(o, u, v)))
+            .collect();
+        let g = Region {
+            patch: 4,
+            s0: 0.25,
+            t0: 0.5,
+            h: 0.25,
+        };
+        let mut sum = vec![0.0; basis.n()];
+        let mut evals = 0;
+        for q in [0, 1, 2, 3, 5] {
+            for c in 0..4 {
+                let e = Region {
+                    patch: q,
+                    s0: 0.5 * (c % 2) as f64,
+                    t0: 0.5 * (c / 2) as f64,
+                    h: 0.5,
+                };
+                let p = piece(&patches[q], &e, true).unwrap();
+                let m = moments(&patches, &basis, &rules, &g, &p, &mut evals).unwrap();
+                for (s, v) in sum.iter_mut().zip(&m) {
+                    *s += v;
+                }
+            }
+        }
+        let area = 1.0 / 16.0;
+        assert!((sum[0] - area).abs() < 1e-14, "{}", sum[0]);
+        for v in &sum[1..] {
+            assert!(v.abs() < 1e-14, "{sum:?}");
+        }
+    }
+
+    #[test]
+    fn convex_clip_keeps_the_inside() {
+        let w = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(1.0, 1.0),
+            DVec2::new(0.0, 1.0),
+        ];
+        // An L-shaped (concave) loop half outside the window, clockwise (a hole).
+        let l = [
+            DVec2::new(0.5, 0.5),
+            DVec2::new(0.5, 2.0),
+            DVec2::new(2.0, 2.0),
+            DVec2::new(2.0, -1.0),
+            DVec2::new(-1.0, -1.0),
+            DVec2::new(-1.0, 0.5),
+        ];
+        let c = clip_convex(&l, &w);
+        // Window ∩ L = the unit square minus [0, 0.5] × [0.5, 1], clockwise.
+        assert!(
+            (signed_area(&c) + 0.75).abs() < 1e-14,
+            "{}",
+            signed_area(&c)
+        );
+    }
+}
