@@ -27,7 +27,7 @@ use wavelux::geometry::formfactor::{
 use wavelux::param::glam::DVec3;
 use wavelux::quadrature::GaussLegendre;
 use wavelux::scene::{Scene, parse_native};
-use wavelux::solver::{BasisKind, LinearMethod, SolverConfig};
+use wavelux::solver::{BasisKind, LinearMethod, Solution, SolverConfig};
 
 /// Exitance of every catalogue emitter (W/m²).
 pub const EMISSION: f64 = 1.0;
@@ -124,6 +124,25 @@ pub fn default_settings() -> SolverConfig {
         tolerance: 1e-6,
         ..SolverConfig::default()
     }
+}
+
+/// Real-area average radiosity (first channel) of the lit sides of a surface: the sides
+/// that reflect or emit (the inside of a sphere is the back side of its surface).
+///
+/// # Panics
+/// If `surface` is out of range.
+pub fn lit_average(sol: &Solution, surface: usize) -> f64 {
+    let mut acc = 0.0;
+    let mut area = 0.0;
+    for &p in &sol.by_surface[surface] {
+        if !sol.patches[p].can_emit() {
+            continue;
+        }
+        let (v, a) = sol.patch_real_integral(p);
+        acc += v[0];
+        area += a;
+    }
+    acc / area
 }
 
 // ---------------------------------------------------------------------------------
@@ -284,7 +303,13 @@ fn c11(a: f64, b: f64, c: f64, scale: f64, extreme: bool) -> Case {
     } else {
         format!("{a}×{b} at c = {c}, scale {scale:e}")
     };
-    case(Family::C11, name, extreme, t, vec![("receiver".into(), RHO * EMISSION * f)])
+    case(
+        Family::C11,
+        name,
+        extreme,
+        t,
+        vec![("receiver".into(), RHO * EMISSION * f)],
+    )
 }
 
 /// C-14: common edge `l` along x; receiver of width `w` in the floor (facing +z),
@@ -300,7 +325,13 @@ fn c14(l: f64, w: f64, h: f64, scale: f64, extreme: bool) -> Case {
     } else {
         format!("l = {l}, w = {w}, h = {h}, scale {scale:e}")
     };
-    case(Family::C14, name, extreme, t, vec![("receiver".into(), RHO * EMISSION * f)])
+    case(
+        Family::C14,
+        name,
+        extreme,
+        t,
+        vec![("receiver".into(), RHO * EMISSION * f)],
+    )
 }
 
 /// Two unit squares with a common edge (along x) at dihedral angle `deg`: receiver in
@@ -445,7 +476,7 @@ fn light_straddling() -> Case {
     t += &quad("emitter", "lamp", e[0], e[1], e[2]);
     case(
         Family::Junction,
-        "0.2 lamp at 0.15 over coplanar receivers 1×1 | 0.25×0.25 (T-junction)",
+        "0.2 lamp at 0.15 over coplanar receivers 1×1 and 0.25×0.25 (T-junction)",
         true,
         t,
         vec![

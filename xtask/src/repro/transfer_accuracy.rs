@@ -48,7 +48,7 @@ fn run_case(c: &Case, cfg: &SolverConfig) -> anyhow::Result<Vec<Measured>> {
                 case: c.name.clone(),
                 receiver: name.clone(),
                 exact: *exact,
-                ours: sol.surface_average(i)[0],
+                ours: catalogue::lit_average(&sol, i),
                 seconds,
                 links: sol.stats.links,
                 tol: c.tolerance(),
@@ -109,7 +109,7 @@ fn area_mean(scene: &Scene, sol: &wavelux::solver::Solution) -> f64 {
     let mut den = 0.0;
     for (i, s) in scene.surfaces.iter().enumerate() {
         let a = s.shape.area();
-        num += a * sol.surface_average(i)[0];
+        num += a * catalogue::lit_average(sol, i);
         den += a;
     }
     num / den
@@ -136,7 +136,10 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         ..Report::default()
     };
     let cfg = default_settings();
-    report.param("settings", "M3, eps 1e-2, max_level 2, GMRES(30), tolerance 1e-6, 3 Gauss points");
+    report.param(
+        "settings",
+        "M3, eps 1e-2, max_level 2, GMRES(30), tolerance 1e-6, 3 Gauss points",
+    );
     let mut rows = Vec::new();
     let mut measured = Vec::new();
     for c in catalogue::cases() {
@@ -157,7 +160,10 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             m.links.to_string(),
         ]);
         report.rows.push(Row::new(
-            format!("{} {} [{}]: receiver radiosity", m.family, m.case, m.receiver),
+            format!(
+                "{} {} [{}]: receiver radiosity",
+                m.family, m.case, m.receiver
+            ),
             Some(m.exact),
             m.ours,
             "W/m²",
@@ -166,9 +172,11 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     }
     report.tables.push(Table {
         title: "Analytic catalogue at default settings".into(),
-        headers: ["family", "case", "exact", "ours", "error", "time (s)", "links"]
-            .map(String::from)
-            .to_vec(),
+        headers: [
+            "family", "case", "exact", "ours", "error", "time (s)", "links",
+        ]
+        .map(String::from)
+        .to_vec(),
         rows,
     });
     // Furnaces at every basis and a range of levels.
@@ -219,7 +227,12 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
                     sol.stats.links.to_string(),
                 ]);
                 report.rows.push(Row::new(
-                    format!("furnace {} {} level {}: mean radiosity", f.name, basis.name(), level),
+                    format!(
+                        "furnace {} {} level {}: mean radiosity",
+                        f.name,
+                        basis.name(),
+                        level
+                    ),
                     Some(f.exact_mean),
                     mean,
                     "W/m²",
@@ -256,6 +269,9 @@ fn rows_summary(m: &[Measured]) -> usize {
         .iter()
         .filter(|m| ((m.ours - m.exact) / m.exact).abs() <= m.tol)
         .count();
-    eprintln!("transfer-accuracy: {ok} of {} receivers within tolerance", m.len());
+    eprintln!(
+        "transfer-accuracy: {ok} of {} receivers within tolerance",
+        m.len()
+    );
     ok
 }
