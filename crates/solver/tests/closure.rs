@@ -176,7 +176,11 @@ fn leaf_row_sums_are_one_in_a_closed_box_and_bounded_in_the_cornell_box() {
         let sol = solve(&cornell, &config(basis, 3, GMRES)).unwrap();
         let (hi, lo) = row_sums(&sol);
         println!("Cornell {}: row sums {lo:.4} .. {hi:.6}", basis.name());
-        assert!(hi <= 1.03 && lo > 0.0, "{}: {lo} .. {hi}", basis.name());
+        assert!(hi <= 1.03, "{}: {lo} .. {hi}", basis.name());
+        // Haar blocks are non-negative (M3's higher moments may dip below zero).
+        if basis == BasisKind::Haar {
+            assert!(lo > 0.0, "Haar: {lo} .. {hi}");
+        }
     }
 }
 
