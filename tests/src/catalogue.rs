@@ -156,11 +156,14 @@ fn v3(p: DVec3) -> String {
 const MATERIALS: &str = "[[material]]\nname = \"lamp\"\nreflectance = 0.0\nemission = 1.0\n\n\
                          [[material]]\nname = \"white\"\nreflectance = 0.5\n\n";
 
-fn header(name: &str) -> String {
+/// The head of a catalogue scene: its name and the materials `lamp` (black, E = 1)
+/// and `white` (ρ = 0.5).
+pub fn header(name: &str) -> String {
     format!("name = {name:?}\n\n{MATERIALS}")
 }
 
-fn quad(name: &str, material: &str, origin: DVec3, eu: DVec3, ev: DVec3) -> String {
+/// A `[[surface]]` parallelogram `origin + s·eu + t·ev` (front side `eu × ev`).
+pub fn quad(name: &str, material: &str, origin: DVec3, eu: DVec3, ev: DVec3) -> String {
     format!(
         "[[surface]]\nname = {name:?}\nmaterial = {material:?}\nshape = {{ type = \"parallelogram\", origin = {}, edge_u = {}, edge_v = {} }}\n\n",
         v3(origin),
@@ -243,8 +246,9 @@ fn receiver_average(o: DVec3, eu: DVec3, ev: DVec3, f: &dyn Fn(DVec3) -> f64) ->
     sum
 }
 
-/// `F(R → E)` of two parallelograms by Lambert's formula integrated over `R`.
-fn quad_to_quad(r: [DVec3; 3], e: [DVec3; 3]) -> f64 {
+/// `F(R → E)` of two parallelograms `[origin, edge_u, edge_v]` (unoccluded) by
+/// Lambert's formula integrated over `R` with the graded rule (~1e-12).
+pub fn quad_to_quad(r: [DVec3; 3], e: [DVec3; 3]) -> f64 {
     let [o, eu, ev] = r;
     let n = eu.cross(ev).normalize();
     let poly = [e[0], e[0] + e[1], e[0] + e[1] + e[2], e[0] + e[2]];
