@@ -460,11 +460,22 @@ fn field_at<F: RadiosityField + ?Sized>(
             .diagonal()
             .length()
             .max(f64::MIN_POSITIVE);
+    field_at_within(field, prim, x, n, d)
+}
+
+/// [`field_at`] with the probe starting `d` above `x` and reaching `d` below it.
+fn field_at_within<F: RadiosityField + ?Sized>(
+    field: &F,
+    prim: usize,
+    x: glam::DVec3,
+    n: glam::DVec3,
+    d: f64,
+) -> Option<[f64; 3]> {
     let ray = Ray {
         origin: x + n * d,
         dir: -n,
     };
-    let hit: Hit = field.accel().closest_hit(&ray, 0.0, 10.0 * d)?;
+    let hit: Hit = field.accel().closest_hit(&ray, 0.0, 2.0 * d)?;
     if hit.prim as usize != prim || !hit.front {
         return None;
     }
@@ -576,4 +587,106 @@ pub fn write_field_lightmaps<F: RadiosityField + ?Sized>(
         out.push(path);
     }
     Ok(out)
+}
+
+/// A flat triangle of a primitive: (primitive index, corners, front normal, probe
+/// offset).
+type Piece = (usize, [glam::DVec3; 3], glam::DVec3, f64);
+
+/// The area-weighted average radiosity (W/m², RGB) of every surface's front side
+/// under `field`, in scene order: each primitive is tessellated as in
+/// [`write_field_gltf`], each triangle split into `k²` congruent sub-triangles
+/// (`k = ⌈√(per_surface / triangles of the surface)⌉`, at most 64) and the field
+/// evaluated at their centroids (midpoint rule; exact for fields linear on each
+/// sub-triangle). Points the field does not resolve (outside a trim) count as black.
+///
+/// # Errors
+/// [`RenderError::Invalid`] for `per_surface = 0`, [`RenderError::Scene`] for invalid
+/// geometry.
+pub fn field_surface_averages<F: RadiosityField + ?Sized>(
+    field: &F,
+    scene: &Scene,
+    per_surface: usize,
+) -> Result<Vec<[f64; 3]>, RenderError> {
+    if per_surface == 0 {
+        return Err(invalid("samples per surface", "must be >= 1"));
+    }
+    let prims = scene
+        .primitives(&scene.name)
+        .map_err(|e| RenderError::Scene(e.to_string()))?;
+    let opts = TessellationOptions::default();
+    let diag = field
+        .accel()
+        .bounds()
+        .diagonal()
+        .length()
+        .max(f64::MIN_POSITIVE);
+    // (primitive, triangle, normal, probe offset): flat pieces lie on the primitive;
+    // a tessellated curved piece is off it by its chord error, well within 10 % of its
+    // longest edge.
+    let mut tris: Vec<Vec<Piece>> = vec![Vec::new(); scene.surfaces.len()];
+    for (k, (s, prim)) in prims.iter().enumerate() {
+        match prim {
+            Primitive::Triangle(t) => tris[*s].push((k, t.v, t.normal(), 1e-6 * diag)),
+            Primitive::Parallelogram(q) => {
+                let c = q.corners();
+                tris[*s].push((k, [c[0], c[1], c[2]], q.normal(), 1e-6 * diag));
+                tris[*s].push((k, [c[0], c[2], c[3]], q.normal(), 1e-6 * diag));
+            }
+            other => {
+                let m = tessellate(other, &opts).map_err(|e| RenderError::Scene(e.to_string()))?;
+                for t in &m.indices {
+                    let v = t.map(|i| m.positions[i as usize]);
+                    let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+                    // The primitive's normal orientation, not the winding's.
+                    let n0 = m.normals[t[0] as usize];
+                    let edge = (0..3)
+                        .map(|e| (v[(e + 1) % 3] - v[e]).length())
+                        .fold(0.0, f64::max);
+                    let d = (0.1 * edge).max(1e-6 * diag);
+                    tris[*s].push((k, v, if n.dot(n0) < 0.0 { -n } else { n }, d));
+                }
+            }
+        }
+    }
+    Ok(tris
+        .iter()
+        .map(|list| {
+            let k = ((per_surface as f64 / list.len().max(1) as f64)
+                .sqrt()
+                .ceil() as usize)
+                .clamp(1, 64);
+            let (mut sum, mut area) = ([0.0; 3], 0.0);
+            for (prim, v, n, d) in list {
+                let a = 0.5 * (v[1] - v[0]).cross(v[2] - v[0]).length();
+                if a.is_nan() || a <= 0.0 {
+                    continue;
+                }
+                let w = a / (k * k) as f64;
+                let (e1, e2) = ((v[1] - v[0]) / k as f64, (v[2] - v[0]) / k as f64);
+                for i in 0..k {
+                    for j in 0..k - i {
+                        // Upright sub-triangle (i, j) and, where it exists, the inverted one.
+                        let base = v[0] + e1 * i as f64 + e2 * j as f64;
+                        let mut centroids = vec![base + (e1 + e2) / 3.0];
+                        if i + j + 1 < k {
+                            centroids.push(base + (e1 + e2) * (2.0 / 3.0));
+                        }
+                        for c in centroids {
+                            let b = field_at_within(field, *prim, c, *n, *d).unwrap_or([0.0; 3]);
+                            for (s, v) in sum.iter_mut().zip(b) {
+                                *s += w * v;
+                            }
+                        }
+                    }
+                }
+                area += a;
+            }
+            if area > 0.0 {
+                sum.map(|v| v / area)
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect())
 }

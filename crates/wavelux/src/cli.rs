@@ -40,6 +40,10 @@ pub enum Command {
     Compare(CompareArgs),
     /// List the crates this build is made of.
     Crates,
+    /// Relight a scene with precomputed meshless direct-to-indirect transfer
+    /// (Meshless §3.3): per frame full and indirect images, optional bakes, and JSON.
+    #[command(args_override_self = true)]
+    Relight(RelightArgs),
 }
 
 /// Global illumination method.
@@ -52,6 +56,9 @@ pub enum MethodArg {
     Shoot,
     /// The Monte Carlo path tracer (reference / ground truth).
     Reference,
+    /// Meshless hierarchical basis with precomputed direct-to-indirect transfer
+    /// (Meshless §2-§3): one frame lit by the scene's lights and emitters.
+    Meshless,
 }
 
 /// Basis of the wavelet solver.
@@ -133,9 +140,10 @@ pub struct SolveArgs {
     /// limit [default: 10].
     #[arg(long, value_parser = parse_fraction, conflicts_with_all = ["eps", "oracle"])]
     pub target_error: Option<f64>,
-    /// Refinement threshold (see --oracle for its unit).
-    #[arg(long, default_value_t = 1e-2)]
-    pub eps: f64,
+    /// Refinement threshold (see --oracle for its unit) [default: 0.01; meshless: the
+    /// dimensionless link threshold, 0.005].
+    #[arg(long)]
+    pub eps: Option<f64>,
     /// Deepest element level (0..=20) [default: 2 for gather, 3 for shoot].
     #[arg(long)]
     pub max_level: Option<u8>,
@@ -216,6 +224,53 @@ pub struct SolveArgs {
     /// With --method reference: samples per surface of the reference itself.
     #[arg(long, default_value_t = 65536)]
     pub samples: u64,
+    /// Options of `--method meshless`.
+    #[command(flatten)]
+    pub meshless: MeshlessArgs,
+}
+
+/// Options of the meshless method (`--method meshless`).
+#[derive(Args, Clone, Debug)]
+pub struct MeshlessArgs {
+    /// Meshless: receiver levels L_r (1..=16).
+    #[arg(long, default_value_t = 6)]
+    pub levels: usize,
+    /// Meshless: sender levels L_s (the first levels; 1..=levels).
+    #[arg(long, default_value_t = 3)]
+    pub sender_levels: usize,
+    /// Meshless: Poisson-disk spacing R of level 0 in scene units [default: 5 % of the
+    /// scene's bounding-box diagonal].
+    #[arg(long)]
+    pub r_coarse: Option<f64>,
+    /// Meshless: gather rays per receiver (eq. 16).
+    #[arg(long, default_value_t = 256)]
+    pub gather_rays: usize,
+    /// Meshless: bounces B of S = T + T₀QT + ...
+    #[arg(long, default_value_t = 4)]
+    pub bounces: usize,
+    /// Meshless: threshold of the bounce products [default: eps/10].
+    #[arg(long)]
+    pub bounce_eps: Option<f64>,
+    /// Meshless: viewpoint x,y,z of point placement [default: the scene's first camera,
+    /// else the centre of its bounds].
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    pub viewpoint: Option<Vec<f64>>,
+    /// Meshless: read the precomputed transfer from this file when it exists (it must
+    /// belong to the scene), else precompute and write it there.
+    #[arg(long)]
+    pub transfer: Option<PathBuf>,
+    /// Meshless: area-emitter samples per point of the direct lighting.
+    #[arg(long, default_value_t = 64)]
+    pub emitter_samples: usize,
+    /// Meshless: at runtime skip senders with |e_j| <= skip·max|e|.
+    #[arg(long, default_value_t = 1e-3)]
+    pub skip: f64,
+    /// Meshless: largest number of points (an error when exceeded).
+    #[arg(long, default_value_t = 4_000_000)]
+    pub max_points: usize,
+    /// Meshless: largest number of links in T or S (an error when exceeded).
+    #[arg(long, default_value_t = 200_000_000)]
+    pub max_links: usize,
 }
 
 /// A fraction written as `0.01` or `1%`; must be finite and in (0, 1).
@@ -231,6 +286,25 @@ fn parse_fraction(v: &str) -> Result<f64, String> {
     } else {
         Err(format!("{v:?} must be in (0, 1) (or (0 %, 100 %))"))
     }
+}
+
+/// Options of `relight`.
+#[derive(Args, Clone, Debug)]
+pub struct RelightArgs {
+    /// Scene, image and meshless options (`--method` is ignored: always meshless).
+    #[command(flatten)]
+    pub solve: SolveArgs,
+    /// Camera options.
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    /// A light of the (single) frame, repeatable (intensity in W/sr, cone half-angles
+    /// in degrees): `spot:pos=x,y,z,dir=x,y,z,angle=DEG[,inner=DEG],rgb=R[,G,B]` or
+    /// `point:pos=x,y,z,rgb=R[,G,B]` [default: the scene's own lights].
+    #[arg(long = "light")]
+    pub lights: Vec<String>,
+    /// A JSON file of frames: `[{"lights": ["spot:pos=...", ...]}, ...]`.
+    #[arg(long)]
+    pub path: Option<PathBuf>,
 }
 
 /// Camera options of `render`.

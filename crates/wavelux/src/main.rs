@@ -25,6 +25,7 @@ fn main() {
             Ok(())
         }
         Some(Command::Compare(c)) => compare::run(&c),
+        Some(Command::Relight(r)) => pipeline::relight(&r),
         Some(Command::Crates) => {
             println!("wavelux {}", env!("CARGO_PKG_VERSION"));
             for (name, job) in wavelux::CRATES {

@@ -102,6 +102,9 @@ pub struct MethodInfo {
     /// Shooting: shot limit (null otherwise).
     #[serde(default)]
     pub max_shots: Option<usize>,
+    /// `--method meshless`: its whole configuration (null otherwise).
+    #[serde(default)]
+    pub meshless: Option<wavelux::meshless::MeshlessConfig>,
     /// Monte Carlo samples per surface (reference or error check).
     pub samples: u64,
     /// Worker threads.
@@ -213,6 +216,9 @@ pub struct Statistics {
     /// and every refine-solve-estimate round (null otherwise).
     #[serde(default)]
     pub target: Option<TargetReport>,
+    /// `--method meshless`: precomputation and frame statistics (null otherwise).
+    #[serde(default)]
+    pub meshless: Option<MeshlessStats>,
 }
 
 /// The target-error loop of a run (`--target-error`).
@@ -262,6 +268,22 @@ pub struct TargetRound {
     pub time_estimate_s: f64,
     /// Shadow rays of the estimate.
     pub estimate_rays: u64,
+}
+
+/// Statistics of `--method meshless`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct MeshlessStats {
+    /// Whether the transfer was read from `--transfer` (its precomputation statistics
+    /// are then those of the run that built it).
+    pub transfer_loaded: bool,
+    /// The transfer backend.
+    pub backend: String,
+    /// Hash of the scene the transfer belongs to (hex).
+    pub scene_hash: String,
+    /// Points, links, rays, bytes and phase times (ms) of the precomputation.
+    pub precompute: wavelux::meshless::PrecomputeStats,
+    /// Times (ms) of the frame: direct irradiance, pull-push, `S·e`.
+    pub frame: wavelux::meshless::FrameTimes,
 }
 
 /// Energy accounting (W per channel).

@@ -1076,3 +1076,162 @@ fn unrepresentable_geometry_is_a_typed_error() -> Result<()> {
     );
     Ok(())
 }
+
+#[test]
+fn meshless_method_matches_the_reference_and_reuses_its_transfer() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    // Small meshless settings (2 receiver levels, 1 sender level, 32 gather rays,
+    // ε = 0.005): ~4 s in the dev profile; relative L1 9.3 % measured at these settings.
+    let small = [
+        "--method",
+        "meshless",
+        "--levels",
+        "2",
+        "--sender-levels",
+        "1",
+        "--gather-rays",
+        "32",
+        "--emitter-samples",
+        "16",
+        "--eps",
+        "0.005",
+        "--transfer",
+        "cornell.transfer",
+        "--gltf",
+        "baked.gltf",
+        "--lightmaps",
+        "4",
+    ];
+    let first = solve_json("builtin:cornell-box", &small, d, "first")?;
+    assert!(d.join("cornell.transfer").exists());
+    assert!(d.join("baked.gltf").exists() && d.join("baked.bin").exists());
+    let maps = first["outputs"]["lightmaps"]
+        .as_str()
+        .context("lightmaps")?;
+    let exrs = std::fs::read_dir(d.join(maps))?.count();
+    assert!(exrs >= 8, "{exrs} lightmaps"); // one per primitive
+    assert_eq!(first["method"]["name"], "meshless");
+    assert_eq!(first["statistics"]["meshless"]["transfer_loaded"], false);
+    let err = first["error_estimate"]["relative_l1"]
+        .as_f64()
+        .context("error estimate")?;
+    assert!(err < 0.15, "meshless vs path tracer: relative L1 {err}");
+    // Every surface is lit (directly or indirectly), the light keeps its emission.
+    for s in first["surfaces"].as_array().context("surfaces")? {
+        let b = s["radiosity"][0].as_f64().context("radiosity")?;
+        assert!(b > 0.0 && b.is_finite(), "{s}");
+    }
+    // The second run reads the transfer and reproduces the surface averages exactly.
+    let second = solve_json("builtin:cornell-box", &small, d, "second")?;
+    assert_eq!(second["statistics"]["meshless"]["transfer_loaded"], true);
+    assert_eq!(first["surfaces"], second["surfaces"]);
+    // A transfer built with other options is refused, not silently reused.
+    let mut other: Vec<&str> = small.to_vec();
+    other[5] = "2";
+    let mut args = vec!["solve", "builtin:cornell-box", "--quiet", "--no-image"];
+    args.extend_from_slice(&other);
+    fails(&args, d, "other meshless options");
+    // Bad knobs are clear errors.
+    let base = [
+        "solve",
+        "builtin:cornell-box",
+        "--method",
+        "meshless",
+        "--no-image",
+    ];
+    let with = |extra: &[&'static str]| -> Vec<&'static str> {
+        base.iter().chain(extra).copied().collect()
+    };
+    fails(&with(&["--levels", "0"]), d, "receiver_levels");
+    fails(&with(&["--sender-levels", "7"]), d, "sender_levels");
+    fails(&with(&["--viewpoint", "1,2"]), d, "--viewpoint");
+    fails(&with(&["--eps=-1"]), d, "epsilon");
+    Ok(())
+}
+
+#[test]
+fn relight_writes_every_frame_and_rejects_bad_lights() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    std::fs::write(
+        d.join("frames.json"),
+        r#"[{"lights": ["spot:pos=0.278,0.5,0.27,dir=0,-1,0,angle=40,rgb=1"]},
+            {"lights": ["point:pos=0.1,0.3,0.2,rgb=0.5,0.4,0.3", "point:pos=0.4,0.3,0.3,rgb=0.2"]}]"#,
+    )?;
+    let small = [
+        "relight",
+        "builtin:cornell-box",
+        "--levels",
+        "2",
+        "--sender-levels",
+        "1",
+        "--gather-rays",
+        "32",
+        "--emitter-samples",
+        "8",
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--spp",
+        "1",
+        "--quiet",
+    ];
+    let mut args = small.to_vec();
+    args.extend_from_slice(&["--path", "frames.json", "--lightmaps", "2"]);
+    ok(&args, d)?;
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(
+        d.join("out/cornell.relight.json"),
+    )?)?;
+    assert_eq!(v["schema"], "wavelux-relight");
+    let frames = v["frames"].as_array().context("frames")?;
+    assert_eq!(frames.len(), 2);
+    assert_eq!(frames[1]["lights"].as_array().map(Vec::len), Some(2));
+    for (k, f) in frames.iter().enumerate() {
+        for suffix in ["", ".indirect"] {
+            for ext in ["exr", "png"] {
+                let p = d.join(format!("out/cornell.relight.{k:03}{suffix}.{ext}"));
+                assert!(p.is_file(), "{p:?} missing");
+            }
+        }
+        assert!(
+            d.join(format!("out/cornell.relight.{k:03}-lightmaps"))
+                .is_dir()
+        );
+        // The indirect part is non-negative and below the full exitance everywhere.
+        for s in f["surfaces"].as_array().context("surfaces")? {
+            for c in 0..3 {
+                let (full, ind) = (
+                    s["radiosity"][c].as_f64().context("radiosity")?,
+                    s["indirect"][c].as_f64().context("indirect")?,
+                );
+                assert!(ind >= 0.0 && ind <= full + 1e-12, "{s}");
+            }
+        }
+    }
+    // Bad lights and frame files are clear errors naming the problem.
+    let bad = |extra: &[&'static str], needle: &str| {
+        let mut args = small.to_vec();
+        args.extend_from_slice(extra);
+        fails(&args, d, needle);
+    };
+    bad(
+        &["--light", "spot:pos=1,2,dir=0,-1,0,angle=40,rgb=1"],
+        "pos needs three",
+    );
+    bad(&["--light", "lamp:pos=1,2,3,rgb=1"], "unknown kind");
+    bad(&["--light", "point:pos=1,2,3,rgb=1,size=2"], "unknown key");
+    bad(&["--light", "point:pos=1,2,3,rgb=-1"], "light");
+    bad(
+        &["--light", "spot:pos=0,0.5,0,dir=0,0,0,angle=40,rgb=1"],
+        "light",
+    );
+    bad(
+        &["--light", "point:pos=1,2,3,rgb=1", "--path", "frames.json"],
+        "exclude each other",
+    );
+    std::fs::write(d.join("broken.json"), "[{\"light\": []}]")?;
+    bad(&["--path", "broken.json"], "broken.json");
+    Ok(())
+}

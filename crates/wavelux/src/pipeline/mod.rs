@@ -2,15 +2,17 @@
 //! the error, render), write the EXR, PNG and JSON, print a summary.
 //!
 //! Each global-illumination method is one module implementing [`Method`]: `gather`
-//! (wavelet radiosity with links), `shoot` (linkless shooting) and `reference` (the
-//! path tracer); `wavelet` holds what gathering and shooting share (statistics, surface
+//! (wavelet radiosity with links), `shoot` (linkless shooting), `reference` (the
+//! path tracer) and `meshless` (precomputed meshless transfer, one frame); `wavelet` holds what gathering and shooting share (statistics, surface
 //! averages, the error check and the image of a wavelet [`Solution`]). Adding a method
 //! is a new module, a `MethodArg` variant and one arm in [`plan`].
 
 mod error_check;
 mod gather;
+mod meshless;
 mod output;
 mod reference;
+mod relight;
 mod scenes;
 mod shoot;
 mod summary;
@@ -26,6 +28,7 @@ use wavelux::render::{Image, ReferenceOptions, View};
 use wavelux::scene::Scene;
 use wavelux::solver::Solution;
 
+pub use relight::run as relight;
 pub use scenes::{list_scenes, load_scene};
 
 use crate::cli::{CameraArgs, MeshGroupingArg, MethodArg, SolveArgs, SolverArg};
@@ -50,6 +53,8 @@ pub struct Job<'a> {
     pub args: &'a SolveArgs,
     /// The validated scene.
     pub scene: &'a Scene,
+    /// The file stem of the outputs (`OUT/STEM.exr`, ...).
+    pub stem: &'a str,
     /// The image's view (`None` with `--no-image`).
     pub view: Option<&'a View>,
     /// Whether progress bars are shown.
@@ -93,6 +98,7 @@ pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
         MethodArg::Shoot => shoot::plan(a),
         MethodArg::Gather if a.solver == Some(SolverArg::Southwell) => shoot::plan(a),
         MethodArg::Gather => gather::plan(a),
+        MethodArg::Meshless => meshless::plan(a),
     }
 }
 
@@ -101,11 +107,7 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
     let t_start = Instant::now();
     let threads = thread_pool(a.threads)?;
     check_image_options(a)?;
-    let grouping = match a.mesh_grouping {
-        MeshGroupingArg::Surfaces => wavelux::scene::MeshGrouping::Surfaces,
-        MeshGroupingArg::Triangles => wavelux::scene::MeshGrouping::Triangles,
-    };
-    let (scene, stem) = load_scene(&a.scene, grouping)?;
+    let (scene, stem) = load_scene(&a.scene, mesh_grouping(a))?;
     let t_load = t_start.elapsed();
     let method = plan(a)?;
     let info = method.info(base_info(a, threads));
@@ -126,6 +128,7 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
     let job = Job {
         args: a,
         scene: &scene,
+        stem: &stem,
         view: view.as_ref(),
         show_progress: progress::enabled(a.quiet),
         reference: ReferenceOptions {
@@ -167,6 +170,14 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
         summary::print_summary(&result, method.as_ref(), outcome.solution.is_some());
     }
     Ok(())
+}
+
+/// The mesh grouping of `--mesh-grouping`.
+fn mesh_grouping(a: &SolveArgs) -> wavelux::scene::MeshGrouping {
+    match a.mesh_grouping {
+        MeshGroupingArg::Surfaces => wavelux::scene::MeshGrouping::Surfaces,
+        MeshGroupingArg::Triangles => wavelux::scene::MeshGrouping::Triangles,
+    }
 }
 
 /// Sets up the global thread pool (`--threads`); returns the number of threads.
@@ -211,6 +222,7 @@ fn base_info(a: &SolveArgs, threads: usize) -> report::MethodInfo {
         quad: None,
         convergence: None,
         max_shots: None,
+        meshless: None,
         samples: a.samples,
         threads,
         seed: a.seed,

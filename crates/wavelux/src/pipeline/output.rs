@@ -9,7 +9,7 @@ use wavelux::render::{ToneMap, image::write_bytes_atomic};
 use wavelux::scene::Scene;
 
 use super::{Outcome, name_of};
-use crate::cli::SolveArgs;
+use crate::cli::{MethodArg, SolveArgs};
 use crate::report;
 
 /// Path of the JSON result: `--json`, else `OUT/STEM.json`.
@@ -48,17 +48,28 @@ pub fn write_files(
             outputs.gltf = Some(g.display().to_string());
         }
         if let Some(res) = a.lightmaps {
-            let dir = a.out.join(format!("{stem}-lightmaps"));
+            let dir = lightmaps_dir(a, stem);
             wavelux::render::export::write_lightmaps(sol, &names, &dir, res)?;
             outputs.lightmaps = Some(dir.display().to_string());
         }
+    } else if a.method == MethodArg::Meshless {
+        // Written by the method itself (its field borrows its precomputation).
+        outputs.gltf = a.gltf.as_ref().map(|g| g.display().to_string());
+        outputs.lightmaps = a
+            .lightmaps
+            .map(|_| lightmaps_dir(a, stem).display().to_string());
     } else if a.gltf.is_some() || a.lightmaps.is_some() {
         bail!(
-            "--gltf and --lightmaps export a wavelet solution; --method {} has none",
+            "--gltf and --lightmaps export a wavelet or meshless solution; --method {} has none",
             name_of(a.method)
         );
     }
     Ok(outputs)
+}
+
+/// The directory of `--lightmaps`: `OUT/STEM-lightmaps`.
+pub fn lightmaps_dir(a: &SolveArgs, stem: &str) -> PathBuf {
+    a.out.join(format!("{stem}-lightmaps"))
 }
 
 /// Writes the JSON result (pretty-printed) to `path`, creating its directory.

@@ -34,7 +34,7 @@ pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
     }
     let cfg = ShootConfig {
         basis: basis_kind(a.basis.unwrap_or(BasisArg::Haar)),
-        eps: a.eps,
+        eps: a.eps.unwrap_or(1e-2),
         max_level: a.max_level.unwrap_or(MAX_LEVEL),
         min_area: a.min_area,
         quad_points: a.quad,
