@@ -21,10 +21,12 @@
 
 use glam::{DVec2, DVec3};
 use rand::RngExt;
+use std::sync::OnceLock;
 use wavelux_geometry::{Accel, Hit};
-use wavelux_solver::{Side, Solution, Support, SupportMap};
+use wavelux_solver::{Side, Solution, Statistics, Support, SupportMap};
 
 use crate::RenderError;
+use crate::direct::DirectLight;
 use crate::sampling::rng_for;
 
 /// Where a ray landed on a field's geometry, resolved to a lit side.
@@ -63,6 +65,18 @@ pub trait RadiosityField: Sync {
     fn sample_emitter(&self, _u: [f64; 3]) -> Option<EmitterSample> {
         None
     }
+    /// The field's emitters for exact direct light ([`DirectLight`]); `None` (the
+    /// default) if it cannot describe them.
+    fn direct_light(&self) -> Option<&DirectLight> {
+        None
+    }
+    /// The *indirect* part of the radiosity at `p` as the field represents it: the
+    /// light that reached `p` after at least one reflection, `B − E − ρ·H_direct`
+    /// (W/m², RGB). Rendering adds it to exact direct light. `None` (the default) if
+    /// the field cannot separate it.
+    fn indirect(&self, _p: &SurfacePoint) -> Option<[f64; 3]> {
+        None
+    }
 }
 
 /// A point on an emitter drawn uniformly by area (see
@@ -92,6 +106,11 @@ pub struct SolutionField<'a> {
     pieces: Vec<SupportMap>,
     /// Emitting patches and the cumulative area.
     emitters: (Vec<usize>, Vec<f64>),
+    /// Emitters for exact direct light.
+    direct: DirectLight,
+    /// The indirect part `K(B − E)` as a solution on the same hierarchy, computed on
+    /// first use (`None`: the solution cannot separate it).
+    indirect: OnceLock<Option<Solution>>,
 }
 
 fn geo(e: wavelux_geometry::GeometryError) -> RenderError {
@@ -147,14 +166,52 @@ impl<'a> SolutionField<'a> {
                 emitters.1.push(tot);
             }
         }
+        let lit: Vec<(u32, bool, [f64; 3])> = solution
+            .patches
+            .iter()
+            .filter(|p| p.emission.iter().any(|&e| e > 0.0))
+            .map(|p| (p.prim, p.side == Side::Back, p.emission))
+            .collect();
+        let direct = DirectLight::new(&accel, &lit)?;
         Ok(Self {
             solution,
             accel,
             sides,
             pieces,
             emitters,
+            direct,
+            indirect: OnceLock::new(),
         })
     }
+}
+
+/// The indirect part of a gathering solution, `K(B − E)` on the same hierarchy and
+/// links (Galerkin: `B = E + K E + K(B − E)`, so this is what the solution holds beyond
+/// the first bounce from the emitters); `None` for solutions without links (linkless
+/// shooting, CDV's Haar conversion), whose operator is not stored.
+fn indirect_solution(sol: &Solution) -> Option<Solution> {
+    if sol.cdv_field().is_some() || sol.stats.links == 0 {
+        return None;
+    }
+    let sys = &sol.system;
+    let leaf: [Vec<f64>; 3] = std::array::from_fn(|ch| {
+        let mut x = sol.leaf_coefficients(ch);
+        for (v, e) in x.iter_mut().zip(sys.emission(ch)) {
+            *v -= e;
+        }
+        let mut y = vec![0.0; x.len()];
+        sys.apply_k(ch, &x, &mut y);
+        y
+    });
+    Some(Solution::new(
+        sol.patches.clone(),
+        sol.by_surface.clone(),
+        sys.clone(),
+        sol.basis().clone(),
+        leaf,
+        Statistics::default(),
+        Vec::new(),
+    ))
 }
 
 impl RadiosityField for SolutionField<'_> {
@@ -187,6 +244,17 @@ impl RadiosityField for SolutionField<'_> {
 
     fn reflectance(&self, p: &SurfacePoint) -> [f64; 3] {
         self.solution.patches[p.side_index].reflectance
+    }
+
+    fn direct_light(&self) -> Option<&DirectLight> {
+        Some(&self.direct)
+    }
+
+    fn indirect(&self, p: &SurfacePoint) -> Option<[f64; 3]> {
+        self.indirect
+            .get_or_init(|| indirect_solution(self.solution))
+            .as_ref()
+            .map(|s| s.radiosity(p.side_index, p.st.x, p.st.y))
     }
 
     fn sample_emitter(&self, u: [f64; 3]) -> Option<EmitterSample> {

@@ -352,6 +352,106 @@ impl Image {
         })
     }
 
+    /// Relative L1 error of the reflected radiance: `Σ |a − b| / Σ |b|` over pixels
+    /// and channels, leaving out every pixel where `emitters` (an image of the emitted
+    /// radiance at the primary hits, e.g. [`crate::PathTracer::emission_image`]) is
+    /// non-zero in the pixel or one of its eight neighbours: light sources are exact
+    /// for every method, and their anti-aliased edges would otherwise dominate the
+    /// sum. Returns the error and the number of pixels kept.
+    ///
+    /// # Errors
+    /// [`RenderError::SizeMismatch`] if the sizes differ; [`RenderError::Invalid`] if
+    /// no kept pixel has any radiance.
+    pub fn reflected_relative_l1(
+        &self,
+        reference: &Image,
+        emitters: &Image,
+    ) -> Result<(f64, usize), RenderError> {
+        self.check_size(reference)?;
+        self.check_size(emitters)?;
+        let (w, h) = (self.width, self.height);
+        let lit = |x: usize, y: usize| emitters.pixels[y * w + x].iter().any(|&v| v > 0.0);
+        let near_light = |i: usize| {
+            let (x, y) = (i % w, i / w);
+            (y.saturating_sub(1)..(y + 2).min(h))
+                .any(|yy| (x.saturating_sub(1)..(x + 2).min(w)).any(|xx| lit(xx, yy)))
+        };
+        let (mut num, mut den, mut kept) = (0.0, 0.0, 0usize);
+        for (i, (a, b)) in self.pixels.iter().zip(&reference.pixels).enumerate() {
+            if near_light(i) {
+                continue;
+            }
+            kept += 1;
+            for c in 0..3 {
+                num += (a[c] - b[c]).abs();
+                den += b[c].abs();
+            }
+        }
+        if !(den > 0.0 && den.is_finite()) {
+            return Err(invalid(
+                "reference image",
+                "no radiance outside the light sources",
+            ));
+        }
+        Ok((num / den, kept))
+    }
+
+    /// The image box-filtered down by an integer `factor` (each output pixel the mean
+    /// of `factor × factor` input pixels; sizes must divide).
+    ///
+    /// # Errors
+    /// [`RenderError::Invalid`] if `factor` is 0 or does not divide both sizes.
+    pub fn downsample(&self, factor: usize) -> Result<Image, RenderError> {
+        if factor == 0 || self.width % factor != 0 || self.height % factor != 0 {
+            return Err(invalid(
+                "downsampling factor",
+                format!("{factor} does not divide {}x{}", self.width, self.height),
+            ));
+        }
+        let (w, h) = (self.width / factor, self.height / factor);
+        let mut out = Image::new(w, h);
+        let k = 1.0 / (factor * factor) as f64;
+        for y in 0..self.height {
+            for x in 0..self.width {
+                let p = self.pixels[y * self.width + x];
+                let o = &mut out.pixels[(y / factor) * w + x / factor];
+                for c in 0..3 {
+                    o[c] += k * p[c];
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Pixel-to-pixel noise in flat regions: the root mean square over the pixels
+    /// marked in `flat` (each with its four neighbours inside the image) of the
+    /// relative second difference of the luminance,
+    /// `(|L(x−1) − 2L(x) + L(x+1)|² + |L(y−1) − 2L(y) + L(y+1)|²) / (2 · 6 L(x)²)`.
+    /// For independent per-pixel noise of relative standard deviation `σ` each term's
+    /// expectation is `σ²` (a second difference has variance `6σ²`), while a smooth
+    /// image contributes only its curvature. `None` if no marked pixel qualifies.
+    pub fn flat_noise(&self, flat: &[bool]) -> Option<f64> {
+        let (w, h) = (self.width, self.height);
+        let lum = |x: usize, y: usize| luminance(self.pixels[y * w + x]);
+        let (mut acc, mut n) = (0.0, 0usize);
+        for y in 1..h.saturating_sub(1) {
+            for x in 1..w.saturating_sub(1) {
+                if !flat.get(y * w + x).copied().unwrap_or(false) {
+                    continue;
+                }
+                let l = lum(x, y);
+                if !(l > 0.0) {
+                    continue;
+                }
+                let dx = lum(x - 1, y) - 2.0 * l + lum(x + 1, y);
+                let dy = lum(x, y - 1) - 2.0 * l + lum(x, y + 1);
+                acc += (dx * dx + dy * dy) / (12.0 * l * l);
+                n += 1;
+            }
+        }
+        (n > 0).then(|| (acc / n as f64).sqrt())
+    }
+
     fn check_size(&self, o: &Image) -> Result<(), RenderError> {
         if self.width != o.width || self.height != o.height {
             return Err(RenderError::SizeMismatch(

@@ -10,13 +10,18 @@
 //! - [`meshless_field`]: [`MeshlessField`], a `wavelux-meshless` relighting result
 //!   (direct lighting composited with the indirect expansion, Meshless §3.3);
 //! - [`render`](mod@render): images of a field, optionally with one-bounce final gather
-//!   (Glossy §5.5);
+//!   (Glossy §5.5) or exact direct light plus the field's indirect part;
+//! - [`direct`]: exact direct light (unoccluded form factors times kernel-weighted
+//!   visible fractions of stratified shadow rays);
 //! - [`image`]: linear RGB images, EXR (exr crate) and tone-mapped sRGB PNG (png crate)
 //!   I/O, error metrics and false-colour error maps; every file is written through a
 //!   temporary file and an atomic rename;
 //! - [`reference`]: a Monte Carlo path tracer for diffuse scenes (the ground truth for
 //!   scenes without closed forms), and [`reference::volume`], a particle tracer for
 //!   voxel media (the ground truth of the volume method);
+//! - [`texels`]: lightmap-like texel grids over every lit side at a fixed density,
+//!   any field evaluated on them, and the area-weighted relative L1 error of the
+//!   function against a path-traced texel reference with its noise floor;
 //! - [`export`]: glTF export with baked per-vertex radiosity and per-patch lightmaps.
 //!
 //! # Units
@@ -27,6 +32,7 @@
 
 mod area;
 pub mod camera;
+pub mod direct;
 pub mod export;
 pub mod field;
 pub mod image;
@@ -34,13 +40,16 @@ pub mod meshless_field;
 pub mod reference;
 pub mod render;
 mod sampling;
+pub mod texels;
 
 pub use camera::{View, auto_camera, scene_up};
+pub use direct::DirectLight;
 pub use field::{EmitterSample, RadiosityField, SolutionField, SurfacePoint, side_average};
 pub use image::{ErrorMetrics, Image, ToneMap, write_atomic};
 pub use meshless_field::{Component, IndirectSource, MeshlessField};
 pub use reference::{PathTracer, ReferenceOptions, SurfaceEstimate};
 pub use render::{RenderOptions, RenderStats, render};
+pub use texels::{Texel, TexelGrid, TexelMetrics, TexelValues};
 
 /// Errors of the renderer, exporters and the reference.
 #[derive(Debug, thiserror::Error)]

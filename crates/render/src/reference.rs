@@ -52,13 +52,14 @@ use crate::camera::View;
 use crate::image::Image;
 use crate::render::SECONDARY_EPS_REL;
 use crate::sampling::{cosine_dir, rng_for};
+use crate::texels::TexelGrid;
 use crate::{RenderError, invalid};
 
 /// Reflectance and emission of one surface side.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct SideMat {
-    rho: [f64; 3],
-    e: [f64; 3],
+pub(crate) struct SideMat {
+    pub(crate) rho: [f64; 3],
+    pub(crate) e: [f64; 3],
 }
 
 /// Options of the random walks.
@@ -118,7 +119,8 @@ pub struct PathTracer {
     punctual: Vec<Light>,
 }
 
-fn side_mat(scene: &Scene, id: usize, name: &str) -> Result<SideMat, RenderError> {
+/// Reflectance and emission of a material (texture means applied), validated.
+pub(crate) fn side_mat(scene: &Scene, id: usize, name: &str) -> Result<SideMat, RenderError> {
     let m = scene
         .materials
         .get(id)
@@ -241,6 +243,14 @@ impl PathTracer {
     /// The accelerator (primitive ids index the scene's flattened primitives).
     pub fn accel(&self) -> &Accel {
         &self.accel
+    }
+
+    /// `(reflectance, emitted exitance)` of one side of a surface (texture means
+    /// applied, as the path tracer uses them); `None` for the black back of a one-sided
+    /// surface or an index out of range.
+    pub fn side_material(&self, surface: usize, back: bool) -> Option<([f64; 3], [f64; 3])> {
+        let m = self.sides.get(surface)?[usize::from(back)]?;
+        Some((m.rho, m.e))
     }
 
     /// Surface index and side material of a hit (`None`: black back side).
@@ -582,6 +592,160 @@ impl PathTracer {
             }
         }
         Ok(estimate(s, s2, paths))
+    }
+
+    /// The emitted radiance `E/π` at the primary hits, `spp × spp` samples at the
+    /// centres of a regular grid per pixel (deterministic): where the light sources
+    /// are in the image (the mask of [`Image::reflected_relative_l1`]).
+    ///
+    /// # Errors
+    /// [`RenderError::Invalid`] for `spp ∉ 1..=64`.
+    pub fn emission_image(&self, view: &View, spp: usize) -> Result<Image, RenderError> {
+        if !(1..=64).contains(&spp) {
+            return Err(invalid("spp", format!("{spp} not in 1..=64")));
+        }
+        let (w, h) = (view.width, view.height);
+        let k = 1.0 / (std::f64::consts::PI * (spp * spp) as f64);
+        let rows: Vec<Vec<[f64; 3]>> = (0..h)
+            .into_par_iter()
+            .map(|y| {
+                (0..w)
+                    .map(|x| {
+                        let mut acc = [0.0; 3];
+                        for sy in 0..spp {
+                            for sx in 0..spp {
+                                let ray = view.ray(
+                                    x as f64 + (sx as f64 + 0.5) / spp as f64,
+                                    y as f64 + (sy as f64 + 0.5) / spp as f64,
+                                );
+                                if let Some(hit) = self.accel.closest_hit(&ray, 0.0, f64::INFINITY)
+                                    && let Some((_, m, _)) = self.side_of(&hit)
+                                {
+                                    for c in 0..3 {
+                                        acc[c] += m.e[c];
+                                    }
+                                }
+                            }
+                        }
+                        acc.map(|v| v * k)
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut img = Image::new(w, h);
+        for (y, r) in rows.into_iter().enumerate() {
+            img.pixels[y * w..(y + 1) * w].copy_from_slice(&r);
+        }
+        Ok(img)
+    }
+
+    /// The *flat* pixels of `view` (for [`Image::flat_noise`]): pixels whose 3×3
+    /// neighbourhood's centre rays all hit the same lit side of one non-emitting
+    /// surface, and are all fully lit or all fully shadowed as seen from 16 fixed
+    /// points on the emitters (stratified by area; no shadow boundary or penumbra
+    /// crosses the neighbourhood). Without light sampling (an emitter that cannot be
+    /// sampled by area) no pixel is flat.
+    pub fn flat_pixels(&self, view: &View) -> Vec<bool> {
+        let (w, h) = (view.width, view.height);
+        let lights = self.lights.as_ref();
+        // Per pixel centre: (surface, back side, visible fraction class) or None.
+        let class: Vec<Option<(usize, bool, u8)>> = (0..w * h)
+            .into_par_iter()
+            .map(|i| {
+                let (lights, cdf) = lights?;
+                let tot = *cdf.last()?;
+                let ray = view.ray((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+                let hit = self.accel.closest_hit(&ray, 0.0, f64::INFINITY)?;
+                let (s, m, n) = self.side_of(&hit)?;
+                if max3(m.e) > 0.0 {
+                    return None;
+                }
+                let mut seen = 0u32;
+                let mut tried = 0u32;
+                let mut rng = rng_for(0xF1A7, 0, 0);
+                for k in 0..16 {
+                    let u = (k as f64 + 0.5) / 16.0 * tot;
+                    let j = cdf.partition_point(|&c| c <= u).min(lights.len() - 1);
+                    let (pk, back, _) = lights[j];
+                    let Ok((y, ny)) = self.sample_prim(pk, &mut rng) else {
+                        continue;
+                    };
+                    let ny = if back { -ny } else { ny };
+                    let d = y - hit.point;
+                    if n.dot(d) <= 0.0 || ny.dot(d) >= 0.0 {
+                        tried += 1;
+                        continue;
+                    }
+                    tried += 1;
+                    if !self
+                        .accel
+                        .occluded(hit.point, y, [Some(hit.prim), Some(pk as u32)])
+                    {
+                        seen += 1;
+                    }
+                }
+                let cls = match seen {
+                    0 => 0,
+                    x if x == tried => 2,
+                    _ => 1,
+                };
+                Some((s, !hit.front, cls))
+            })
+            .collect();
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+                    return false;
+                }
+                let Some(c) = class[i] else { return false };
+                if c.2 == 1 {
+                    return false;
+                }
+                (y - 1..=y + 1).all(|yy| (x - 1..=x + 1).all(|xx| class[yy * w + xx] == Some(c)))
+            })
+            .collect()
+    }
+
+    /// Radiosity at every texel of `grid` (built from the same scene) from `paths`
+    /// walks each, with standard errors; texel `i` draws from its own stream
+    /// `(seed, i)`, so the result does not depend on the thread count.
+    ///
+    /// # Errors
+    /// [`RenderError::Invalid`] for zero paths or a texel that does not belong to this
+    /// scene (surface, side or primitive out of range).
+    pub fn texels(
+        &self,
+        grid: &TexelGrid,
+        paths: u64,
+        opts: &ReferenceOptions,
+    ) -> Result<Vec<SurfaceEstimate>, RenderError> {
+        if paths == 0 {
+            return Err(invalid("paths", "must be >= 1"));
+        }
+        grid.texels
+            .par_iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let m = self
+                    .sides
+                    .get(t.surface)
+                    .and_then(|s| s[usize::from(t.back)])
+                    .filter(|_| (t.prim as usize) < self.prim_surface.len())
+                    .ok_or_else(|| invalid("texel", format!("texel {i} is not of this scene")))?;
+                let (x, n) = (DVec3::from_array(t.point), DVec3::from_array(t.normal));
+                let (mut s, mut s2) = ([0.0; 3], [0.0; 3]);
+                for k in 0..paths {
+                    let mut rng = rng_for(opts.seed, i as u64 | (1 << 40), k);
+                    let b = self.radiosity_sample(x, n, Some(t.prim), m, opts, &mut rng);
+                    for c in 0..3 {
+                        s[c] += b[c];
+                        s2[c] += b[c] * b[c];
+                    }
+                }
+                Ok(estimate(s, s2, paths))
+            })
+            .collect()
     }
 
     /// Renders `view` with `spp²` stratified samples per pixel, one walk each (pixel

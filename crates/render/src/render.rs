@@ -21,33 +21,49 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
 use rand::RngExt;
+use rand_pcg::Pcg64;
 use rayon::prelude::*;
 use serde::Serialize;
 use wavelux_geometry::Ray;
 
 use crate::camera::View;
-use crate::field::RadiosityField;
+use crate::field::{RadiosityField, SurfacePoint};
 use crate::image::Image;
 use crate::sampling::{cosine_dir, rng_for};
 use crate::{RenderError, invalid};
 
 /// Options of [`render`].
+///
+/// How a pixel sample at a surface point `x` is shaded:
+/// - `gather = 0`, `direct = 0`: the field's radiosity `B(x)` itself;
+/// - `gather = 0`, `direct > 0`: `E + ρ·H_d(x) + B_ind(x)`: exact direct light
+///   ([`crate::DirectLight`], `direct` stratified shadow rays per emitter) plus the
+///   field's indirect part ([`RadiosityField::indirect`]); a field that cannot separate
+///   its indirect part is shown as `B(x)` (counted in [`RenderStats::unsplit`]);
+/// - `gather > 0`, `direct = 0`: one-bounce final gather with light sampling (module
+///   docs);
+/// - `gather > 0`, `direct > 0`: exact direct light plus a final gather of the field's
+///   reflected radiosity `B − E` for the indirect part.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderOptions {
     /// Samples per pixel along each axis (`spp²` stratified, jittered samples; `1..=64`).
     pub spp: usize,
     /// Final-gather rays per pixel sample (0: off; `≤ 65536`).
     pub gather: usize,
-    /// Seed of the jitter and gather directions.
+    /// Shadow rays per emitter and pixel sample for exact direct light (0: off;
+    /// `≤ 4096`; rounded down to a square on triangles and parallelograms).
+    pub direct: usize,
+    /// Seed of the jitter, gather directions and light samples.
     pub seed: u64,
 }
 
 impl Default for RenderOptions {
-    /// 2×2 samples per pixel, no gather, seed 0.
+    /// 2×2 samples per pixel, no gather, no direct light, seed 0.
     fn default() -> Self {
         Self {
             spp: 2,
             gather: 0,
+            direct: 0,
             seed: 0,
         }
     }
@@ -58,8 +74,13 @@ impl Default for RenderOptions {
 pub struct RenderStats {
     /// Primary rays traced.
     pub primary_rays: u64,
-    /// Final-gather rays traced.
+    /// Final-gather rays traced (with their light-sampling shadow rays).
     pub gather_rays: u64,
+    /// Shadow rays of exact direct light.
+    pub direct_rays: u64,
+    /// Pixel samples shown as the field's radiosity because it could not separate its
+    /// indirect part (with `direct > 0` and `gather = 0`).
+    pub unsplit: u64,
 }
 
 /// Relative ray-origin offset along the normal and minimum hit distance of secondary
@@ -140,6 +161,99 @@ pub(crate) fn direct_light<F: RadiosityField + ?Sized>(
     s.emission.map(|e| e * g)
 }
 
+/// The radiosity shown for a pixel sample at `p` (on primitive `prim`), by the modes
+/// of [`RenderOptions`]; ray counts go to `counts`.
+fn shade<F: RadiosityField + ?Sized>(
+    field: &F,
+    p: &SurfacePoint,
+    prim: u32,
+    opts: &RenderOptions,
+    eps: f64,
+    rng: &mut Pcg64,
+    counts: &mut RenderStats,
+) -> [f64; 3] {
+    if opts.gather == 0 && opts.direct == 0 {
+        return field.radiosity(p);
+    }
+    let e = field.emission(p);
+    let rho = field.reflectance(p);
+    if !rho.iter().any(|&r| r > 0.0) {
+        return e;
+    }
+    let lights = field.direct_light().filter(|_| opts.direct > 0);
+    let direct = match lights {
+        Some(l) => {
+            let (h, rays) = l.irradiance(
+                field.accel(),
+                p.point,
+                p.normal,
+                Some(prim),
+                opts.direct,
+                rng,
+            );
+            counts.direct_rays += rays;
+            Some(h)
+        }
+        None => None,
+    };
+    let o = p.point + p.normal * eps;
+    match (direct, opts.gather) {
+        (Some(hd), 0) => match field.indirect(p) {
+            Some(ind) => std::array::from_fn(|c| e[c] + rho[c] * hd[c] + ind[c]),
+            None => {
+                counts.unsplit += 1;
+                field.radiosity(p)
+            }
+        },
+        (Some(hd), g) => {
+            // Exact direct light plus a gather of the reflected radiosity B − E.
+            let mut irr = [0.0; 3];
+            for _ in 0..g {
+                let d = cosine_dir(p.normal, rng.random(), rng.random());
+                let ray = Ray { origin: o, dir: d };
+                if let Some(h) = field.accel().closest_hit(&ray, eps, f64::INFINITY)
+                    && let Some(q) = field.resolve(&h)
+                {
+                    let (b, ee) = (field.radiosity(&q), field.emission(&q));
+                    for c in 0..3 {
+                        irr[c] += b[c] - ee[c];
+                    }
+                }
+            }
+            counts.gather_rays += g as u64;
+            std::array::from_fn(|c| e[c] + rho[c] * (hd[c] + irr[c] / g as f64))
+        }
+        (None, 0) => field.radiosity(p),
+        (None, g) => {
+            let mut irr = [0.0; 3];
+            let nee = field.sample_emitter([0.5; 3]).is_some();
+            for _ in 0..g {
+                let d = cosine_dir(p.normal, rng.random(), rng.random());
+                let bb = if nee {
+                    reflected_along(field, o, d, d.dot(p.normal), eps)
+                } else {
+                    radiosity_along(field, o, d, eps)
+                };
+                let dl = if nee {
+                    direct_light(
+                        field,
+                        p.point,
+                        p.normal,
+                        [rng.random(), rng.random(), rng.random()],
+                    )
+                } else {
+                    [0.0; 3]
+                };
+                for c in 0..3 {
+                    irr[c] += bb[c] + dl[c];
+                }
+            }
+            counts.gather_rays += g as u64 * if nee { 2 } else { 1 };
+            std::array::from_fn(|c| e[c] + rho[c] * irr[c] / g as f64)
+        }
+    }
+}
+
 /// Renders `view` of `field`; `progress` is called with the number of rows finished
 /// (once per row, from worker threads).
 ///
@@ -157,18 +271,23 @@ pub fn render<F: RadiosityField + ?Sized>(
     if opts.gather > 65536 {
         return Err(invalid("gather", format!("{} > 65536", opts.gather)));
     }
+    if opts.direct > 4096 {
+        return Err(invalid("direct", format!("{} > 4096", opts.direct)));
+    }
     let (w, h) = (view.width, view.height);
     let diag = field.accel().bounds().diagonal().length();
     let eps = SECONDARY_EPS_REL * if diag.is_finite() { diag } else { 1.0 };
     let primary = AtomicU64::new(0);
     let gathered = AtomicU64::new(0);
+    let direct = AtomicU64::new(0);
+    let unsplit = AtomicU64::new(0);
     let n = opts.spp;
     let inv_pi = 1.0 / std::f64::consts::PI;
     let rows: Vec<Vec<[f64; 3]>> = (0..h)
         .into_par_iter()
         .map(|y| {
             let mut row = vec![[0.0; 3]; w];
-            let mut g_count = 0u64;
+            let mut counts = RenderStats::default();
             for (x, px) in row.iter_mut().enumerate() {
                 let mut rng = rng_for(opts.seed, (y * w + x) as u64, 0);
                 let mut acc = [0.0; 3];
@@ -183,41 +302,7 @@ pub fn render<F: RadiosityField + ?Sized>(
                         let Some(p) = field.resolve(&hit) else {
                             continue;
                         };
-                        let b = if opts.gather == 0 {
-                            field.radiosity(&p)
-                        } else {
-                            let e = field.emission(&p);
-                            let rho = field.reflectance(&p);
-                            let mut irr = [0.0; 3];
-                            if rho.iter().any(|&r| r > 0.0) {
-                                let o = p.point + p.normal * eps;
-                                let nee = field.sample_emitter([0.5; 3]).is_some();
-                                for _ in 0..opts.gather {
-                                    let d = cosine_dir(p.normal, rng.random(), rng.random());
-                                    let bb = if nee {
-                                        reflected_along(field, o, d, d.dot(p.normal), eps)
-                                    } else {
-                                        radiosity_along(field, o, d, eps)
-                                    };
-                                    let direct = if nee {
-                                        direct_light(
-                                            field,
-                                            p.point,
-                                            p.normal,
-                                            [rng.random(), rng.random(), rng.random()],
-                                        )
-                                    } else {
-                                        [0.0; 3]
-                                    };
-                                    for c in 0..3 {
-                                        irr[c] += bb[c] + direct[c];
-                                    }
-                                }
-                                g_count += opts.gather as u64 * if nee { 2 } else { 1 };
-                            }
-                            let g = opts.gather as f64;
-                            std::array::from_fn(|c| e[c] + rho[c] * irr[c] / g)
-                        };
+                        let b = shade(field, &p, hit.prim, opts, eps, &mut rng, &mut counts);
                         for c in 0..3 {
                             acc[c] += b[c];
                         }
@@ -227,7 +312,9 @@ pub fn render<F: RadiosityField + ?Sized>(
                 *px = acc.map(|v| v * k);
             }
             primary.fetch_add((w * n * n) as u64, Ordering::Relaxed);
-            gathered.fetch_add(g_count, Ordering::Relaxed);
+            gathered.fetch_add(counts.gather_rays, Ordering::Relaxed);
+            direct.fetch_add(counts.direct_rays, Ordering::Relaxed);
+            unsplit.fetch_add(counts.unsplit, Ordering::Relaxed);
             progress(1);
             row
         })
@@ -241,6 +328,8 @@ pub fn render<F: RadiosityField + ?Sized>(
         RenderStats {
             primary_rays: primary.into_inner(),
             gather_rays: gathered.into_inner(),
+            direct_rays: direct.into_inner(),
+            unsplit: unsplit.into_inner(),
         },
     ))
 }

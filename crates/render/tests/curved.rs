@@ -298,6 +298,7 @@ fn solved_sphere_lamp_over_an_annulus() {
         &RenderOptions {
             spp: 8,
             gather: 16,
+            direct: 0,
             seed: 3,
         },
         &|_| {},

@@ -129,6 +129,7 @@ fn meshless_field_direct_component_is_the_closed_form() {
     let opts = wavelux_render::RenderOptions {
         spp: 1,
         gather: 0,
+        direct: 0,
         seed: 0,
     };
     let (img, _) = render(&field, &view, &opts, &|_| {}).unwrap();

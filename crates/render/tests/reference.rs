@@ -173,6 +173,7 @@ fn furnace_image_is_uniform() {
             &RenderOptions {
                 spp: 1,
                 gather,
+                direct: 0,
                 seed: 4,
             },
             &|_| {},
