@@ -208,9 +208,15 @@ pub struct SolveArgs {
     /// Samples per pixel along each axis (spp x spp per pixel).
     #[arg(long, default_value_t = 2)]
     pub spp: usize,
-    /// Final-gather rays per pixel sample (0: show the solution directly).
-    #[arg(long, default_value_t = 8)]
+    /// Final-gather rays per pixel sample (0: no final gather). With --direct, they
+    /// gather the solution's reflected light instead of showing its indirect part.
+    #[arg(long, default_value_t = 0)]
     pub gather: usize,
+    /// Exact direct light in the image: shadow rays per emitter and pixel sample
+    /// (stratified; fully lit and fully shadowed points are exact whatever the count),
+    /// plus the solution's indirect part (0: show the solution's radiosity itself).
+    #[arg(long, default_value_t = 4)]
+    pub direct: usize,
     /// Also export a glTF (+ .bin) with the radiosity baked into vertex colours here.
     #[arg(long)]
     pub gltf: Option<PathBuf>,

@@ -192,6 +192,8 @@ pub struct Statistics {
     pub primary_rays: u64,
     /// Final-gather rays.
     pub gather_rays: u64,
+    /// Shadow rays of the image's exact direct light (`--direct`).
+    pub direct_rays: u64,
     /// Bytes held by the solver's hierarchy, links and vectors.
     pub solver_bytes: usize,
     /// Peak resident memory of the process (bytes; null where unknown).

@@ -71,6 +71,7 @@ pub fn finish(
             &RenderOptions {
                 spp: job.args.spp,
                 gather: job.args.gather,
+                direct: job.args.direct,
                 seed: job.args.seed,
             },
             &|k| pb.inc(k),
@@ -78,6 +79,7 @@ pub fn finish(
         pb.finish_and_clear();
         stats.primary_rays = rs.primary_rays;
         stats.gather_rays = rs.gather_rays;
+        stats.direct_rays = rs.direct_rays;
         stats.time_s.render = secs(t.elapsed());
         image = Some(img);
     }
