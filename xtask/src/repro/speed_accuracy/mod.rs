@@ -1,80 +1,53 @@
-//! Speed vs accuracy of every method on scenes with and without closed forms (the
-//! Cornell box, Ziegler's occluded pair and a curved-surface scene, VirtualMesh §6.2's
-//! quadric teapot): error against the Monte Carlo reference (wavelux-render's path
-//! tracer) against wall time, for the gathering wavelet solver (every basis, a sweep
-//! of ε and levels), the linkless shooting solver on the Virtual Mesh (VirtualMesh §5;
-//! bases, ε and levels) and the path tracer itself at increasing sample counts, all in
-//! one run. Two error measures:
-//! per-surface averages (area-weighted L1 over surfaces and channels, relative to the
-//! reflected radiosity `B − E` so that exact emitters do not dilute it) and
-//! per-pixel relative L1 of an image against a converged path-traced image.
+//! Speed vs accuracy of every method on the radiosity *function* (issue 12 §1): the
+//! Cornell box, Ziegler's occluded scene, VirtualMesh §6.2's quadric teapot and the
+//! 343-surface office, each measured in one run against path-traced references with
+//! their noise floors, by four errors:
 //!
-//! There is no paper number to match: the rows report, per scene and method, the
-//! smallest wall time that reached 1 % and 0.1 % error (Info rows), so users can pick
-//! their trade. The references' own noise floors are reported next to them: an error
-//! below the floor is not resolved.
+//! - **surface averages**: area-weighted L1 over surfaces and channels, relative to the
+//!   reflected radiosity `B − E` (so exact emitters do not dilute it);
+//! - **texels** (§1 (a)): the same over a lightmap-like texel grid covering every real
+//!   surface point at a fixed density per m² (`wavelux::render::TexelGrid`);
+//! - **image** (§1 (b)): relative L1 of a 128² image at the scene camera showing the
+//!   solution itself (no final gather), over the pixels that see no light source;
+//! - **image + final gather**: the same with a final gather (8 rays per pixel sample,
+//!   the command's former default);
+//! - **image, exact direct + indirect**: the same with exact direct light (4 stratified
+//!   shadow rays per emitter and pixel sample) plus the solution's indirect part, the
+//!   command's default image.
+//!
+//! Runs: the gathering wavelet solver (every basis, a sweep of ε and levels), the
+//! linkless shooting solver (VirtualMesh §5), the in-tree path tracer at increasing
+//! sample counts, and — when `import mitsuba` works — Mitsuba 3's `path` integrator on
+//! the same texels and camera ([`mitsuba`]). For every scene, method and metric the
+//! report gives the smallest wall time that reached 5 %, 1 % and 0.1 % error; a level
+//! below the reference's noise floor is reported as unresolved, not as reached.
+//! [`targets`] adds the issue's §4 targets as ratios measured in the same run.
+
+mod measure;
+mod mitsuba;
+mod targets;
 
 use std::time::Instant;
 
 use crate::plot::{Axis, Series, Style, xy_plot};
 use crate::report::{Figure, Report, Row, Table, Tolerance};
 use crate::reproduce::Ctx;
-use wavelux::render::{
-    Image, PathTracer, ReferenceOptions, RenderOptions, SolutionField, View, auto_camera, render,
-    scene_up,
+use measure::{
+    DIRECT, GATHER, IMAGE, KEYS, N, NAMES, Point, RefSizes, Refs, SURFACE, TEXEL,
+    measure_path_tracer, measure_solution,
 };
+use wavelux::render::PathTracer;
 use wavelux::scene::{Scene, builtin};
 use wavelux::solver::shoot::{ShootConfig, shoot};
 use wavelux::solver::{BasisKind, LinearMethod, Solution, SolverConfig, SolverError, solve};
 
-/// One measured run.
-struct Point {
-    method: String,
-    setting: String,
-    time_surface: f64,
-    err_surface: f64,
-    time_image: f64,
-    err_image: f64,
-}
-
-fn view_for(scene: &Scene, n: usize) -> anyhow::Result<View> {
-    let cam = match scene.cameras.first() {
-        Some(c) => c.clone(),
-        None => auto_camera(scene, scene_up(scene, false))?,
-    };
-    Ok(View::new(&cam, n, n)?)
-}
-
-/// `Σ_s A_s Σ_c |B_sc − B̂_sc| / Σ_s A_s Σ_c |B̂_sc − E_sc|`: the L1 error of the
-/// surface averages relative to the *reflected* radiosity (emitters' `E` is exact for
-/// every method and would otherwise dominate the denominator).
-fn surface_error(b: &[[f64; 3]], reference: &[[f64; 3]], areas: &[(f64, [f64; 3])]) -> f64 {
-    let (mut num, mut den) = (0.0, 0.0);
-    for ((x, y), (a, e)) in b.iter().zip(reference).zip(areas) {
-        for c in 0..3 {
-            num += a * (x[c] - y[c]).abs();
-            den += a * (y[c] - e[c]).abs();
-        }
-    }
-    num / den
-}
-
-fn time_to(points: &[&Point], thr: f64, image: bool) -> Option<f64> {
-    points
-        .iter()
-        .filter(|p| if image { p.err_image } else { p.err_surface } <= thr)
-        .map(|p| if image { p.time_image } else { p.time_surface })
-        .min_by(f64::total_cmp)
-}
-
-fn fmt_time(t: Option<f64>) -> String {
-    t.map_or("not reached".into(), |t| format!("{t:.3} s"))
-}
+/// Error levels of the time-to table.
+const LEVELS: [(f64, &str); 3] = [(0.05, "5 %"), (0.01, "1 %"), (0.001, "0.1 %")];
 
 /// How a run solves a scene.
 type SolveFn = Box<dyn Fn(&Scene) -> Result<Solution, SolverError>>;
 
-/// One solver run of the sweep: method label, setting, and how to solve.
+/// One solver run of a sweep: method label, setting, and how to solve.
 struct Run {
     method: String,
     setting: String,
@@ -83,6 +56,7 @@ struct Run {
 
 /// What one scene's solver sweep covers: gathering bases × levels × ε, shooting
 /// (Haar) levels × ε.
+#[derive(Clone, Copy)]
 struct Sweep {
     gather_bases: &'static [BasisKind],
     gather_levels: &'static [u8],
@@ -93,8 +67,8 @@ struct Sweep {
 
 impl Sweep {
     fn describe(&self) -> String {
-        format!(
-            "gather {} × levels {:?} × ε {:?}; shoot Haar × levels {:?} × ε {:?}",
+        let mut s = format!(
+            "gather {} × levels {:?} × ε {:?}",
             self.gather_bases
                 .iter()
                 .map(BasisKind::name)
@@ -102,99 +76,213 @@ impl Sweep {
                 .join("/"),
             self.gather_levels,
             self.gather_eps,
-            self.shoot_levels,
-            self.shoot_eps
-        )
+        );
+        if !self.shoot_levels.is_empty() {
+            s += &format!(
+                "; shoot Haar × levels {:?} × ε {:?}",
+                self.shoot_levels, self.shoot_eps
+            );
+        }
+        s
     }
-}
 
-/// The sweeps: the full one on the planar scenes; a small one where a run costs
-/// minutes (the shooting solver on the Cornell box above level 2, every solver on the
-/// 19-surface curved teapot); quick mode runs no shooting (CI time).
-fn sweep(quick: bool, curved: bool) -> Sweep {
-    const ALL: &[BasisKind] = &[
-        BasisKind::Haar,
-        BasisKind::Multiwavelet(2),
-        BasisKind::Multiwavelet(3),
-        BasisKind::Cdv,
-    ];
-    match (quick, curved) {
-        // Quick mode (CI) keeps every gathering basis but leaves shooting to the
-        // virtual-mesh reproductions: one shooting run on these scenes costs minutes.
-        (true, false) => Sweep {
-            gather_bases: ALL,
-            gather_levels: &[2, 3],
-            gather_eps: &[0.1, 0.03],
-            shoot_levels: &[],
-            shoot_eps: &[],
-        },
-        (true, true) => Sweep {
-            gather_bases: &[BasisKind::Haar],
-            gather_levels: &[2],
-            gather_eps: &[0.1],
-            shoot_levels: &[],
-            shoot_eps: &[],
-        },
-        (false, true) => Sweep {
-            gather_bases: &[BasisKind::Haar],
-            gather_levels: &[2],
-            gather_eps: &[0.1],
-            shoot_levels: &[2],
-            shoot_eps: &[0.1],
-        },
-        (false, false) => Sweep {
-            gather_bases: ALL,
-            gather_levels: &[2, 3, 4],
-            gather_eps: &[0.1, 0.05, 0.02, 0.01],
-            shoot_levels: &[2],
-            shoot_eps: &[0.1, 0.03],
-        },
-    }
-}
-
-/// The solver runs of one sweep: gathering with GMRES, shooting to convergence 0.999.
-fn solver_runs(sw: &Sweep) -> Vec<Run> {
-    let mut runs = Vec::new();
-    for &basis in sw.gather_bases {
-        for &level in sw.gather_levels {
-            for &eps in sw.gather_eps {
-                let cfg = SolverConfig {
-                    basis,
+    /// The solver runs: gathering with GMRES, shooting to convergence 0.999.
+    fn runs(&self) -> Vec<Run> {
+        let mut runs = Vec::new();
+        for &basis in self.gather_bases {
+            for &level in self.gather_levels {
+                for &eps in self.gather_eps {
+                    let cfg = SolverConfig {
+                        basis,
+                        eps,
+                        max_level: level,
+                        linear_method: LinearMethod::Gmres { restart: 30 },
+                        tolerance: 1e-8,
+                        ..SolverConfig::default()
+                    };
+                    runs.push(Run {
+                        method: format!("gather {}", basis.name()),
+                        setting: format!("level {level}, ε {eps}"),
+                        solve: Box::new(move |s: &Scene| solve(s, &cfg)),
+                    });
+                }
+            }
+        }
+        for &level in self.shoot_levels {
+            for &eps in self.shoot_eps {
+                let cfg = ShootConfig {
+                    basis: BasisKind::Haar,
                     eps,
                     max_level: level,
-                    linear_method: LinearMethod::Gmres { restart: 30 },
-                    tolerance: 1e-8,
-                    ..SolverConfig::default()
+                    convergence: SHOOT_CONVERGENCE,
+                    ..ShootConfig::default()
                 };
                 runs.push(Run {
-                    method: format!("gather {}", basis.name()),
+                    method: "shoot Haar".into(),
                     setting: format!("level {level}, ε {eps}"),
-                    solve: Box::new(move |s: &Scene| solve(s, &cfg)),
+                    solve: Box::new(move |s: &Scene| shoot(s, &cfg)),
                 });
             }
         }
+        runs
     }
-    for &level in sw.shoot_levels {
-        for &eps in sw.shoot_eps {
-            let cfg = ShootConfig {
-                basis: BasisKind::Haar,
-                eps,
-                max_level: level,
-                convergence: SHOOT_CONVERGENCE,
-                ..ShootConfig::default()
-            };
-            runs.push(Run {
-                method: "shoot Haar".into(),
-                setting: format!("level {level}, ε {eps}"),
-                solve: Box::new(move |s: &Scene| shoot(s, &cfg)),
-            });
-        }
-    }
-    runs
 }
 
 /// Convergence target of the shooting runs (the unshot 0.1 % bounds their error).
 const SHOOT_CONVERGENCE: f64 = 0.999;
+
+const ALL_BASES: &[BasisKind] = &[
+    BasisKind::Haar,
+    BasisKind::Multiwavelet(2),
+    BasisKind::Multiwavelet(3),
+    BasisKind::Cdv,
+];
+
+/// One scene of the report with its sweep and sizes.
+struct Case {
+    name: &'static str,
+    scene: Scene,
+    sweep: Sweep,
+    refs: RefSizes,
+    /// Path-tracer runs: (walks per surface, walks per texel, spp per axis).
+    pt: Vec<(u64, u64, usize)>,
+    /// Mitsuba runs: (walks per texel, spp per axis).
+    mitsuba: Vec<(u64, usize)>,
+}
+
+fn scene(name: &str) -> anyhow::Result<Scene> {
+    builtin::builtin(name).ok_or_else(|| anyhow::anyhow!("builtin {name} missing"))
+}
+
+/// The scenes and their sizes. Texel densities give about 2 000 texels per scene in
+/// full runs (texel sides 3.1 cm on the 0.55 m Cornell box, 12.5 cm on the teapot's
+/// 4 m plate, 25 cm in the 5 m office; every primitive gets at least one).
+fn cases(quick: bool) -> anyhow::Result<Vec<Case>> {
+    let px = if quick { 48 } else { 128 };
+    let pt_levels = |n: usize| -> Vec<(u64, u64, usize)> {
+        [
+            (256, 4, 1),
+            (1024, 16, 2),
+            (4096, 64, 4),
+            (16_384, 256, 8),
+            (65_536, 1024, 16),
+            (262_144, 4096, 24),
+            (1_048_576, 16_384, 32),
+        ]
+        .into_iter()
+        .take(n)
+        .collect()
+    };
+    let mi = |n: usize| -> Vec<(u64, usize)> {
+        [(16, 2), (64, 4), (256, 8), (1024, 16), (4096, 32)]
+            .into_iter()
+            .take(n)
+            .collect()
+    };
+    let planar = if quick {
+        Sweep {
+            gather_bases: ALL_BASES,
+            gather_levels: &[2],
+            gather_eps: &[0.1, 0.03],
+            shoot_levels: &[],
+            shoot_eps: &[],
+        }
+    } else {
+        Sweep {
+            gather_bases: ALL_BASES,
+            gather_levels: &[2, 3, 4],
+            gather_eps: &[0.1, 0.05, 0.02, 0.01],
+            shoot_levels: &[2],
+            shoot_eps: &[0.1, 0.03],
+        }
+    };
+    let refs = |density: f64, paths: u64, samples: u64, spp: usize| RefSizes {
+        texel_density: density,
+        texel_paths: paths,
+        surface_samples: samples,
+        image_px: px,
+        image_spp: spp,
+    };
+    let mut out = vec![
+        Case {
+            name: "cornell-box",
+            scene: builtin::cornell_box(),
+            sweep: planar,
+            refs: if quick {
+                refs(128.0, 4096, 100_000, 6)
+            } else {
+                refs(1024.0, 65_536, 4_000_000, 34)
+            },
+            pt: pt_levels(if quick { 3 } else { 7 }),
+            mitsuba: mi(if quick { 2 } else { 5 }),
+        },
+        Case {
+            name: "ziegler-occluded",
+            scene: builtin::occluded(),
+            sweep: planar,
+            refs: if quick {
+                refs(128.0, 4096, 100_000, 6)
+            } else {
+                refs(1024.0, 65_536, 4_000_000, 34)
+            },
+            pt: pt_levels(if quick { 3 } else { 7 }),
+            mitsuba: mi(if quick { 2 } else { 5 }),
+        },
+        Case {
+            name: "quadric-teapot",
+            scene: scene("quadric-teapot")?,
+            sweep: Sweep {
+                gather_bases: &[BasisKind::Haar],
+                gather_levels: if quick { &[1] } else { &[2] },
+                gather_eps: &[0.1],
+                shoot_levels: if quick { &[] } else { &[2] },
+                shoot_eps: &[0.1],
+            },
+            refs: if quick {
+                refs(8.0, 1024, 20_000, 3)
+            } else {
+                refs(64.0, 16_384, 300_000, 17)
+            },
+            pt: pt_levels(if quick { 2 } else { 5 }),
+            mitsuba: mi(if quick { 1 } else { 4 }),
+        },
+    ];
+    if !quick {
+        out.push(Case {
+            name: "office",
+            scene: scene("office")?,
+            sweep: Sweep {
+                gather_bases: &[BasisKind::Haar, BasisKind::Multiwavelet(3)],
+                gather_levels: &[2],
+                gather_eps: &[0.1, 0.01],
+                shoot_levels: &[],
+                shoot_eps: &[],
+            },
+            refs: refs(16.0, 16_384, 1_000_000, 34),
+            pt: pt_levels(6),
+            mitsuba: mi(4),
+        });
+    }
+    Ok(out)
+}
+
+/// Smallest wall time among `points` whose `metric` error is at most `thr`.
+fn time_to(points: &[&Point], metric: usize, thr: f64) -> Option<f64> {
+    points
+        .iter()
+        .filter(|p| p.err[metric] <= thr)
+        .map(|p| p.time[metric])
+        .filter(|t| t.is_finite())
+        .min_by(f64::total_cmp)
+}
+
+fn best(points: &[&Point], metric: usize) -> f64 {
+    points
+        .iter()
+        .map(|p| p.err[metric])
+        .filter(|e| e.is_finite())
+        .fold(f64::INFINITY, f64::min)
+}
 
 fn pct(x: f64) -> String {
     if x.is_finite() {
@@ -212,361 +300,319 @@ fn secs_cell(x: f64) -> String {
     }
 }
 
+/// The cell "time to `thr`": a time, "not reached", "not measured", or — when `thr`
+/// lies below twice the reference's noise floor — "unresolved (floor F)".
+fn time_cell(points: &[&Point], metric: usize, thr: f64, floor: f64) -> String {
+    if best(points, metric).is_infinite() {
+        return "not measured".into();
+    }
+    if thr < 2.0 * floor {
+        return format!("unresolved (floor {})", pct(floor));
+    }
+    time_to(points, metric, thr).map_or("not reached".into(), |t| format!("{t:.3} s"))
+}
+
+/// Methods in order of first appearance.
+fn methods(points: &[Point]) -> Vec<String> {
+    let mut m: Vec<String> = Vec::new();
+    for p in points {
+        if !m.contains(&p.method) {
+            m.push(p.method.clone());
+        }
+    }
+    m
+}
+
+/// Everything measured on one scene.
+struct SceneResult {
+    name: &'static str,
+    refs: Refs,
+    points: Vec<Point>,
+}
+
+/// Runs every method of a case against its references.
+fn run_case(case: &Case, report: &mut Report) -> anyhow::Result<SceneResult> {
+    let name = case.name;
+    let pt = PathTracer::new(&case.scene)?;
+    let refs = Refs::new(&case.scene, &pt, &case.refs)?;
+    eprintln!(
+        "  {name}: references in {:.1} s ({} texels)",
+        refs.seconds,
+        refs.grid.len()
+    );
+    let mut points = Vec::new();
+    for r in case.sweep.runs() {
+        let t = Instant::now();
+        let sol = match (r.solve)(&case.scene) {
+            Ok(s) => s,
+            Err(e) => {
+                report.we_did.push_str(&format!(
+                    "- {name}, {}, {}: solver error: {e}\n",
+                    r.method, r.setting
+                ));
+                continue;
+            }
+        };
+        let ts = t.elapsed().as_secs_f64();
+        match measure_solution(&r.method, &r.setting, &sol, ts, &refs) {
+            Ok(p) => points.push(p),
+            Err(e) => report.we_did.push_str(&format!(
+                "- {name}, {}, {}: not measured: {e}\n",
+                r.method, r.setting
+            )),
+        }
+    }
+    for &(samples, paths, spp) in &case.pt {
+        points.push(measure_path_tracer(&pt, &refs, samples, paths, spp)?);
+    }
+    match mitsuba::runs(&case.scene, &refs, &case.mitsuba) {
+        Ok(mut p) => points.append(&mut p),
+        Err(why) => report
+            .we_did
+            .push_str(&format!("- {name}: Mitsuba 3 rows skipped: {why}\n")),
+    }
+    Ok(SceneResult { name, refs, points })
+}
+
+/// The plots of one scene: error vs time, one per metric.
+fn plots(ctx: &Ctx, res: &SceneResult, report: &mut Report) -> anyhow::Result<()> {
+    let methods = methods(&res.points);
+    for k in 0..N {
+        let series: Vec<Series> = methods
+            .iter()
+            .map(|m| {
+                let pts = res
+                    .points
+                    .iter()
+                    .filter(|p| p.method == *m)
+                    .map(|p| (p.time[k], p.err[k]))
+                    .filter(|(t, e)| t.is_finite() && e.is_finite() && *e > 0.0)
+                    .collect();
+                Series::new(m.clone(), pts, Style::Points)
+            })
+            .filter(|s| !s.points.is_empty())
+            .collect();
+        if series.is_empty() {
+            continue;
+        }
+        let path = ctx.figure_path(&format!("{}-{}.svg", res.name, KEYS[k]));
+        xy_plot(
+            &path,
+            &format!("{}: {} relative L1 error vs wall time", res.name, NAMES[k]),
+            &Axis::log("wall time (s)"),
+            &Axis::log("relative L1 error"),
+            &series,
+        )?;
+        report.figures.push(Figure {
+            path,
+            caption: format!(
+                "{}: {} — error against the path-traced reference (noise floor {}) vs wall \
+time, one marker per run. The lower-left envelope is the Pareto front.",
+                res.name,
+                NAMES[k],
+                pct(res.refs.floor[k])
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// The every-run table of one scene.
+fn runs_table(res: &SceneResult) -> Table {
+    let mut headers = vec!["method".to_string(), "setting".to_string()];
+    for name in NAMES {
+        headers.push(format!("{name}: time (s)"));
+        headers.push(format!("{name}: error"));
+    }
+    Table {
+        title: format!("{}: every run", res.name),
+        headers,
+        rows: res
+            .points
+            .iter()
+            .map(|p| {
+                let mut r = vec![p.method.clone(), p.setting.clone()];
+                for k in 0..N {
+                    r.push(secs_cell(p.time[k]));
+                    r.push(pct(p.err[k]));
+                }
+                r
+            })
+            .collect(),
+    }
+}
+
+/// Per metric: time to 5 %, 1 %, 0.1 % and the best error, per scene and method.
+fn summary_tables(results: &[SceneResult]) -> Vec<Table> {
+    (0..N)
+        .map(|k| {
+            let mut rows = Vec::new();
+            for res in results {
+                for m in methods(&res.points) {
+                    let pts: Vec<&Point> = res.points.iter().filter(|p| p.method == m).collect();
+                    if best(&pts, k).is_infinite() {
+                        continue;
+                    }
+                    let mut row = vec![res.name.to_string(), m];
+                    for (thr, _) in LEVELS {
+                        row.push(time_cell(&pts, k, thr, res.refs.floor[k]));
+                    }
+                    row.push(pct(best(&pts, k)));
+                    row.push(pct(res.refs.floor[k]));
+                    rows.push(row);
+                }
+            }
+            let mut headers = vec!["scene".to_string(), "method".to_string()];
+            headers.extend(LEVELS.iter().map(|(_, l)| format!("time to {l}")));
+            headers.push("best error".into());
+            headers.push("reference noise floor".into());
+            Table {
+                title: format!(
+                    "{}: time to reach 5 %, 1 % and 0.1 % relative L1 error",
+                    NAMES[k]
+                ),
+                headers,
+                rows,
+            }
+        })
+        .collect()
+}
+
+/// Info rows: the references' floors and each method's time to 1 % on the function
+/// metrics.
+fn info_rows(res: &SceneResult, report: &mut Report) {
+    for k in [SURFACE, TEXEL, IMAGE] {
+        report.rows.push(
+            Row::new(
+                format!("{}: reference noise floor, {}", res.name, NAMES[k]),
+                None,
+                res.refs.floor[k],
+                "",
+                Tolerance::Info,
+            )
+            .comment(format!(
+                "expected error of an exact answer; references computed in {:.1} s",
+                res.refs.seconds
+            )),
+        );
+    }
+    for m in methods(&res.points) {
+        let pts: Vec<&Point> = res.points.iter().filter(|p| p.method == m).collect();
+        for k in [TEXEL, IMAGE, GATHER, DIRECT] {
+            if best(&pts, k).is_infinite() {
+                continue;
+            }
+            let t = time_to(&pts, k, 0.01);
+            report.rows.push(
+                Row::new(
+                    format!("{}: {m}: time to 1 % error, {}", res.name, NAMES[k]),
+                    None,
+                    t.unwrap_or(f64::NAN),
+                    "s",
+                    Tolerance::Info,
+                )
+                .comment(match t {
+                    Some(_) => "smallest wall time among the runs that reached it".to_string(),
+                    None => format!("not reached (best {})", pct(best(&pts, k))),
+                }),
+            );
+        }
+    }
+}
+
 /// Runs the reproduction.
 pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     let mut report = Report {
-        paper_did: "No paper figure: the issue asks for a speed/accuracy chart of every \
-method against the Monte Carlo reference so users can choose their trade."
+        paper_did: "No paper figure: issue 12 §1 asks for the error of the radiosity \
+*function* (texels over every surface point, images at the scene camera with and without \
+final gather) against path-traced references, and the time every method needs to reach \
+5 %, 1 % and 0.1 %, with Mitsuba 3's path tracer beside ours when it is installed; §4 sets \
+targets, reported here as ratios measured in this run."
             .into(),
         we_did: String::new(),
         ..Report::default()
     };
-    let quick = ctx.quick;
-    let (ref_spp, img) = if quick { (8usize, 48usize) } else { (48, 96) };
-    let pt_samples: &[u64] = if quick {
-        &[256, 1024, 4096]
-    } else {
-        &[256, 1024, 4096, 16384, 65536, 262_144, 1_048_576]
-    };
-    let pt_spp: &[usize] = if quick {
-        &[1, 2]
-    } else {
-        &[1, 2, 4, 8, 16, 24]
-    };
-    // (name, scene, curved?, reference samples per surface)
-    let scenes: Vec<(&str, Scene, bool, u64)> = vec![
-        (
-            "cornell-box",
-            builtin::cornell_box(),
-            false,
-            if quick { 100_000 } else { 4_000_000 },
-        ),
-        (
-            "ziegler-occluded",
-            builtin::occluded(),
-            false,
-            if quick { 100_000 } else { 4_000_000 },
-        ),
-        (
-            "quadric-teapot",
-            builtin::builtin("quadric-teapot")
-                .ok_or_else(|| anyhow::anyhow!("builtin quadric-teapot missing"))?,
-            true,
-            if quick { 20_000 } else { 300_000 },
-        ),
-    ];
-    report.param(
-        "reference samples per surface",
-        scenes
-            .iter()
-            .map(|(n, _, _, r)| format!("{n} {r}"))
-            .collect::<Vec<_>>()
-            .join(", "),
-    );
-    report.param(
-        "reference image",
-        format!(
-            "{img}² px, {ref_spp}² samples per pixel ({}² on the curved scene)",
-            ref_spp / 2
-        ),
-    );
-    let (flat_sweep, curved_sweep) = (sweep(quick, false), sweep(quick, true));
-    report.param("planar scenes' solver sweep", flat_sweep.describe());
-    report.param("curved scene's solver sweep", curved_sweep.describe());
+    let cases = cases(ctx.quick)?;
+    for c in &cases {
+        report.param(
+            format!("{}: references", c.name),
+            format!(
+                "{} texels/m² × {} walks, {} walks per surface, image {}² px × 2 × {}² spp",
+                c.refs.texel_density,
+                c.refs.texel_paths,
+                c.refs.surface_samples,
+                c.refs.image_px,
+                c.refs.image_spp
+            ),
+        );
+        report.param(format!("{}: solver sweep", c.name), c.sweep.describe());
+        report.param(
+            format!(
+                "{}: path tracer (walks/surface, walks/texel, spp per axis)",
+                c.name
+            ),
+            format!("{:?}", c.pt),
+        );
+        report.param(
+            format!("{}: Mitsuba 3 (walks/texel, spp per axis)", c.name),
+            format!("{:?}", c.mitsuba),
+        );
+    }
     report.param("gathering linear solver", "GMRES(30), tolerance 1e-8");
     report.param("shooting convergence", SHOOT_CONVERGENCE);
-    let flat = solver_runs(&flat_sweep);
-    let curved = solver_runs(&curved_sweep);
     report.param(
-        "path tracer samples per surface",
-        format!("{pt_samples:?} (curved scene: up to 65536)"),
+        "solver images",
+        format!(
+            "{}² samples per pixel; final gather {} rays per sample; exact direct light {} \
+shadow rays per emitter and sample",
+            measure::SOLVER_SPP,
+            measure::GATHER_RAYS,
+            measure::DIRECT_RAYS
+        ),
     );
-    report.param("path tracer spp (per axis)", format!("{pt_spp:?}"));
     report.param(
         "threads",
         std::thread::available_parallelism().map_or(1, |n| n.get()),
     );
-
-    let mut table_rows = Vec::new();
-    for (name, scene, is_curved, ref_samples) in &scenes {
-        let pt = PathTracer::new(scene)?;
-        let areas: Vec<(f64, [f64; 3])> = scene
-            .surfaces
-            .iter()
-            .map(|s| (s.shape.area(), scene.materials[s.material].emission.0))
-            .collect();
-        let ro = ReferenceOptions {
-            seed: 12345,
-            ..ReferenceOptions::default()
-        };
-        let t = Instant::now();
-        let mut reference = Vec::new();
-        let mut noise = Vec::new();
-        for s in 0..scene.surfaces.len() {
-            let e = pt.surface_average(s, *ref_samples, &ro)?;
-            reference.push(e.mean);
-            noise.push(e.std_error);
-        }
-        let view = view_for(scene, img)?;
-        // The curved scene's reference image uses half the samples per axis (time).
-        let spp = if *is_curved { ref_spp / 2 } else { ref_spp };
-        let ref_img = pt.render(&view, spp, &ro, &|_| {})?;
-        let ref_time = t.elapsed().as_secs_f64();
-        // Σ A·σ / Σ A·B̂: the error measure of a one-σ deviation on every surface.
-        let floor_surface = {
-            let (mut num, mut den) = (0.0, 0.0);
-            for ((se, r), (a, e)) in noise.iter().zip(&reference).zip(&areas) {
-                for c in 0..3 {
-                    num += a * se[c];
-                    den += a * (r[c] - e[c]).abs();
-                }
-            }
-            num / den
-        };
-        report.rows.push(
-            Row::new(
-                format!("{name}: reference noise floor (surface averages, 1σ relative)"),
-                None,
-                floor_surface,
-                "",
-                Tolerance::Info,
-            )
-            .comment(format!("reference computed in {ref_time:.1} s")),
-        );
-        let mut points: Vec<Point> = Vec::new();
-        // Solver sweeps.
-        let runs = if *is_curved { &curved } else { &flat };
-        for r in runs {
-            let t = Instant::now();
-            let sol = match (r.solve)(scene) {
-                Ok(s) => s,
-                Err(e) => {
-                    report.we_did.push_str(&format!(
-                        "- {name}, {}, {}: solver error: {e}\n",
-                        r.method, r.setting
-                    ));
-                    continue;
-                }
-            };
-            let ts = t.elapsed().as_secs_f64();
-            let b: Vec<[f64; 3]> = (0..scene.surfaces.len())
-                .map(|s| sol.surface_average(s))
-                .collect();
-            let t2 = Instant::now();
-            let image = SolutionField::new(&sol).and_then(|field| {
-                render(
-                    &field,
-                    &view,
-                    &RenderOptions {
-                        spp: 2,
-                        gather: 0,
-                        seed: 1,
-                    },
-                    &|_| {},
-                )
-            });
-            let (ti, ei) = match image {
-                Ok((im, _)) => (
-                    ts + t2.elapsed().as_secs_f64(),
-                    im.metrics(&ref_img)?.relative_l1,
-                ),
-                Err(e) => {
-                    report.we_did.push_str(&format!(
-                        "- {name}, {}, {}: no image: {e}\n",
-                        r.method, r.setting
-                    ));
-                    (f64::NAN, f64::NAN)
-                }
-            };
-            points.push(Point {
-                method: r.method.clone(),
-                setting: r.setting.clone(),
-                time_surface: ts,
-                err_surface: surface_error(&b, &reference, &areas),
-                time_image: ti,
-                err_image: ei,
-            });
-        }
-        // Path tracer at increasing sample counts (independent seed).
-        let po = ReferenceOptions {
-            seed: 777,
-            ..ReferenceOptions::default()
-        };
-        for (k, &n) in pt_samples.iter().enumerate() {
-            // The curved scene stops at 65 536 samples per surface (time).
-            if *is_curved && n > 65_536 {
-                continue;
-            }
-            let t = Instant::now();
-            let mut b = Vec::new();
-            for s in 0..scene.surfaces.len() {
-                b.push(pt.surface_average(s, n, &po)?.mean);
-            }
-            let ts = t.elapsed().as_secs_f64();
-            let (ti, ei) = match pt_spp.get(k) {
-                Some(&spp) => {
-                    let t = Instant::now();
-                    let im: Image = pt.render(&view, spp, &po, &|_| {})?;
-                    (t.elapsed().as_secs_f64(), im.metrics(&ref_img)?.relative_l1)
-                }
-                None => (f64::NAN, f64::NAN),
-            };
-            points.push(Point {
-                method: "path tracer".into(),
-                setting: format!(
-                    "{n} samples/surface{}",
-                    pt_spp
-                        .get(k)
-                        .map_or(String::new(), |s| format!(", {s}² spp"))
-                ),
-                time_surface: ts,
-                err_surface: surface_error(&b, &reference, &areas),
-                time_image: ti,
-                err_image: ei,
-            });
-        }
-        // Plots and table.
-        let mut methods: Vec<String> = Vec::new();
-        for p in &points {
-            if !methods.contains(&p.method) {
-                methods.push(p.method.clone());
-            }
-        }
-        for (image, what) in [(false, "surface"), (true, "pixel")] {
-            let series: Vec<Series> = methods
-                .iter()
-                .map(|m| {
-                    let pts = points
-                        .iter()
-                        .filter(|p| p.method == *m)
-                        .map(|p| {
-                            if image {
-                                (p.time_image, p.err_image)
-                            } else {
-                                (p.time_surface, p.err_surface)
-                            }
-                        })
-                        .filter(|(t, e)| t.is_finite() && e.is_finite() && *e > 0.0)
-                        .collect();
-                    Series::new(m.clone(), pts, Style::Points)
-                })
-                .collect();
-            let path = ctx.figure_path(&format!("{name}-{what}.svg"));
-            xy_plot(
-                &path,
-                &format!("{name}: {what} relative L1 error vs wall time"),
-                &Axis::log("wall time (s)"),
-                &Axis::log("relative L1 error"),
-                &series,
-            )?;
-            report.figures.push(Figure {
-                path,
-                caption: format!(
-                    "{name}: {} error against the path-traced reference vs wall time, one \
-marker per run (gathering and shooting: every basis, level and ε of the sweep; path tracer: \
-increasing samples). The lower-left envelope is the Pareto front.",
-                    if image {
-                        "per-pixel relative L1"
-                    } else {
-                        "per-surface average"
-                    }
-                ),
-            });
-        }
-        for m in &methods {
-            let pts: Vec<&Point> = points.iter().filter(|p| p.method == *m).collect();
-            let best = pts
-                .iter()
-                .map(|p| p.err_surface)
-                .fold(f64::INFINITY, f64::min);
-            for (thr, label) in [(0.01, "1%"), (0.001, "0.1%")] {
-                let ts = time_to(&pts, thr, false);
-                report.rows.push(
-                    Row::new(
-                        format!("{name}: {m}: time to {label} surface-average error"),
-                        None,
-                        ts.unwrap_or(f64::NAN),
-                        "s",
-                        Tolerance::Info,
-                    )
-                    .comment(if ts.is_some() {
-                        "smallest wall time among the runs that reached it".to_string()
-                    } else {
-                        format!("not reached by the sweep (best {:.3}%)", 100.0 * best)
-                    }),
-                );
-            }
-            table_rows.push(vec![
-                name.to_string(),
-                m.clone(),
-                fmt_time(time_to(&pts, 0.01, false)),
-                fmt_time(time_to(&pts, 0.001, false)),
-                fmt_time(time_to(&pts, 0.01, true)),
-                fmt_time(time_to(&pts, 0.001, true)),
-                pct(best),
-            ]);
-        }
-        report.tables.push(Table {
-            title: format!("{name}: every run"),
-            headers: [
-                "method",
-                "setting",
-                "solve time (s)",
-                "surface error",
-                "solve + image time (s)",
-                "pixel error",
-            ]
-            .map(String::from)
-            .to_vec(),
-            rows: points
-                .iter()
-                .map(|p| {
-                    vec![
-                        p.method.clone(),
-                        p.setting.clone(),
-                        secs_cell(p.time_surface),
-                        pct(p.err_surface),
-                        secs_cell(p.time_image),
-                        pct(p.err_image),
-                    ]
-                })
-                .collect(),
-        });
+    let mut results = Vec::new();
+    for case in &cases {
+        let res = run_case(case, &mut report)?;
+        plots(ctx, &res, &mut report)?;
+        info_rows(&res, &mut report);
+        results.push(res);
     }
-    report.tables.insert(
-        0,
-        Table {
-            title: "Time to reach 1 % and 0.1 % relative L1 error".into(),
-            headers: [
-                "scene",
-                "method",
-                "surface 1%",
-                "surface 0.1%",
-                "pixel 1%",
-                "pixel 0.1%",
-                "best surface error",
-            ]
-            .map(String::from)
-            .to_vec(),
-            rows: table_rows,
-        },
-    );
-    report.we_did.insert_str(
-        0,
-        "Reference: wavelux-render's path tracer (next-event estimation with MIS, Russian \
-roulette; points and light samples drawn exactly by area on every primitive kind, curved \
-and trimmed included), per-surface averages from uniformly distributed points and a \
-path-traced image at the same camera. Gathering runs: `solve` with GMRES. Shooting runs: \
-the linkless Virtual Mesh shooting solver (`shoot`, Southwell order, Haar) until 99.9 % of \
-the emitted power is propagated; its sweep is small (level 2) because a shooting run costs \
-tens of seconds on the Cornell box at level 2 and minutes above (see the every-run tables). Images of solver runs: no final gather (the solution itself, \
-2×2 samples per pixel). Path tracer runs: an independent seed, samples per surface and \
-samples per pixel increasing together. Times are wall times on this machine with all \
-threads. The curved-surface scene is VirtualMesh §6.2's quadric teapot (12 trimmed quadric \
-patches and 7 complex polygons over a plate); every run on it costs minutes, so its sweep is \
-one gathering and one shooting run, and its reference uses fewer samples (see the \
-parameters), so its noise floor is higher. Errors below a reference's noise floor are not \
-resolved. Solver or image failures, if any, are listed here:\n\n",
-    );
+    if ctx.quick {
+        report.we_did.push_str(
+            "- office: full run only (one gathering solve of its 343 surfaces takes minutes)\n",
+        );
+    }
+    targets::rows(ctx, &results, &mut report)?;
+    let mut tables = summary_tables(&results);
+    tables.extend(results.iter().map(runs_table));
+    report.tables = tables;
+    report.we_did.insert_str(0, WE_DID);
     Ok(report)
 }
+
+const WE_DID: &str = "References (wavelux-render's path tracer: next-event estimation with \
+MIS, Russian roulette; points and light samples drawn exactly by area on every primitive \
+kind): surface averages from uniformly distributed points; texel values from independent \
+walks at every texel of a lightmap-like grid (`TexelGrid`: centres of equal-area cells of \
+each primitive's parametrization at a fixed density per m², real points only, each \
+texel weighted by the area it stands for, the front side of every surface and the back \
+side of two-sided ones); a 128² image at the scene camera as the mean of two independent \
+halves. Errors are relative L1 of the reflected radiosity `B − E` (light sources are exact \
+for every method): area-weighted over surfaces or texels, over pixels and channels for \
+images, leaving out pixels within one pixel of a light source. Noise floors are the \
+expected error of an exact answer against the reference (`σ√(2/π)` per texel or surface \
+from the standard errors; half the error between the two image halves); a level below \
+twice the floor is reported as unresolved. Solver runs: `solve` with GMRES, or the \
+linkless shooting solver until 99.9 % of the emitted power is propagated; texels are the \
+solution evaluated at the texels (a probe ray along the normal finds the solver's patch); \
+images are the solution itself (2×2 samples per pixel), a final gather (8 rays per \
+sample) and exact direct light (4 stratified shadow rays per emitter and sample, \
+unoccluded form factors by Lambert's formula) plus the solution's indirect part `K(B − E)` \
+(shooting and CDV solutions, which store no operator, show their radiosity there). Times: the solve, plus the texel evaluation or the render. Path \
+tracer runs: an independent seed, walks per surface, per texel and per pixel increasing \
+together, each timed on its own. All times are wall times on this machine with all \
+threads, measured in this run. Solver or image failures and skipped rows, if any:\n\n";
