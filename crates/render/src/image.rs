@@ -402,7 +402,8 @@ impl Image {
     /// # Errors
     /// [`RenderError::Invalid`] if `factor` is 0 or does not divide both sizes.
     pub fn downsample(&self, factor: usize) -> Result<Image, RenderError> {
-        if factor == 0 || self.width % factor != 0 || self.height % factor != 0 {
+        if factor == 0 || !self.width.is_multiple_of(factor) || !self.height.is_multiple_of(factor)
+        {
             return Err(invalid(
                 "downsampling factor",
                 format!("{factor} does not divide {}x{}", self.width, self.height),
@@ -440,7 +441,8 @@ impl Image {
                     continue;
                 }
                 let l = lum(x, y);
-                if !(l > 0.0) {
+                // Not positive, or NaN.
+                if l.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                     continue;
                 }
                 let dx = lum(x - 1, y) - 2.0 * l + lum(x + 1, y);
