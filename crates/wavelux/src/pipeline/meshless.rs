@@ -149,6 +149,8 @@ impl Method for Meshless {
                     // The field already integrates the direct light per point with
                     // exact shadow rays; a final gather would lose punctual lights.
                     gather: 0,
+                    // Likewise for exact direct light from emitters.
+                    direct: 0,
                     seed: a.seed,
                 },
                 &|k| pb.inc(k),

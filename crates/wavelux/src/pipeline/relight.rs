@@ -95,6 +95,7 @@ pub fn run(r: &RelightArgs) -> anyhow::Result<()> {
                     &RenderOptions {
                         spp: a.spp,
                         gather: 0,
+                        direct: 0,
                         seed: a.seed,
                     },
                     &|n| pb.inc(n),
