@@ -7,8 +7,11 @@
 //! come from full runs. Every row is a pass (within its tolerance), a known deviation
 //! (outside the tolerance, inside a deviation band declared with its reason in the
 //! registration), a failure (outside both) or info (context, never a pass). The command
-//! exits non-zero when any row fails, in full and `--quick` runs alike.
+//! exits non-zero when any row fails, in full and `--quick` runs alike, except rows on
+//! the open-failure list given with `--open-failures` (see [`crate::open_failures`]):
+//! those stay failures in every report but do not change the exit status.
 
+use crate::open_failures::OpenFailures;
 use crate::report::{Report, Row, Status, Tolerance};
 use crate::repro::{self, Reproduction};
 use anyhow::{Context, bail};
@@ -29,6 +32,11 @@ pub struct Args {
     /// List the registered reproductions and exit.
     #[arg(long)]
     list: bool,
+    /// Rows known to fail today, each with its issue (`docs/reproductions/open-failures.md`):
+    /// they stay failures in the reports, but only a failing row not on this list makes
+    /// the command exit non-zero.
+    #[arg(long, value_name = "FILE")]
+    open_failures: Option<PathBuf>,
 }
 
 /// What a reproduction function receives.
@@ -103,12 +111,18 @@ fn run_with(all: &[Reproduction], args: &Args, root: &Path) -> anyhow::Result<()
             root.join("target/reproductions"),
         )
     };
+    let ids: Vec<&str> = all.iter().map(|r| r.id).collect();
+    let open_list = match &args.open_failures {
+        Some(path) => OpenFailures::read(path, &ids)?,
+        None => OpenFailures::default(),
+    };
     let selected: Vec<&Reproduction> = all
         .iter()
         .filter(|r| args.only.is_empty() || args.only.iter().any(|o| o == r.id))
         .collect();
 
     let mut failed = Vec::new();
+    let mut open = 0usize;
     for r in selected {
         eprintln!(
             "reproducing {} ({}){}",
@@ -159,6 +173,11 @@ fn run_with(all: &[Reproduction], args: &Args, root: &Path) -> anyhow::Result<()
                 row.paper.map_or("—".into(), fmt_num)
             );
             if row.status == Status::Fail {
+                if let Some(e) = open_list.find(r.id, &row.quantity) {
+                    open += 1;
+                    eprintln!("    open failure, listed: {}", e.reason);
+                    continue;
+                }
                 failed.push(format!(
                     "{}: {} (ours {}, paper {}, tolerance {}{})",
                     r.id,
@@ -172,9 +191,27 @@ fn run_with(all: &[Reproduction], args: &Args, root: &Path) -> anyhow::Result<()
                 ));
             }
         }
+        for e in open_list.of(r.id) {
+            let still_fails = report
+                .rows
+                .iter()
+                .any(|row| row.quantity == e.quantity && row.status == Status::Fail);
+            if !still_fails {
+                eprintln!(
+                    "  listed as an open failure but did not fail (absent or passing): {}; \
+                     remove it from the list once it passes reliably",
+                    e.quantity
+                );
+            }
+        }
         eprintln!("  wall time {wall:.2} s");
     }
     write_index(all, &doc_dir)?;
+    if open > 0 {
+        eprintln!(
+            "{open} row(s) fail and are on the open-failure list (still failures in the reports)"
+        );
+    }
     if !failed.is_empty() {
         bail!(
             "{} row(s) outside their tolerance and any declared deviation band:\n  {}",
@@ -432,6 +469,7 @@ mod tests {
             only: only.iter().map(|s| s.to_string()).collect(),
             quick,
             list: false,
+            open_failures: None,
         }
     }
 
@@ -455,6 +493,29 @@ mod tests {
             let md = std::fs::read_to_string(dir.path().join(sub).join("outside.md")).unwrap();
             assert!(md.contains("**FAIL**"), "{md}");
         }
+    }
+
+    #[test]
+    fn only_a_failure_off_the_open_list_fails_the_command() {
+        let all = [repro("outside", outside_band), repro("inside", inside_band)];
+        let dir = tempfile::tempdir().unwrap();
+        let list = dir.path().join("open.md");
+        let mut a = args(&[], true);
+        a.open_failures = Some(list.clone());
+        // Listed: the command succeeds, yet the report still shows the failure.
+        std::fs::write(&list, "# open\n- outside | outside | issue 0: synthetic\n").unwrap();
+        run_with(&all, &a, dir.path()).expect("a listed failure does not fail the command");
+        let md = std::fs::read_to_string(dir.path().join("target/reproductions/quick/outside.md"))
+            .unwrap();
+        assert!(md.contains("**FAIL**"), "{md}");
+        // Another row listed instead: the real failure fails the command again.
+        std::fs::write(&list, "- outside | inside | issue 0: wrong row\n").unwrap();
+        let err = run_with(&all, &a, dir.path()).expect_err("an unlisted failure fails");
+        assert!(format!("{err:#}").contains("outside: outside"), "{err:#}");
+        // A malformed list is an error naming the file.
+        std::fs::write(&list, "- nowhere | q | why\n").unwrap();
+        let err = run_with(&all, &a, dir.path()).expect_err("unknown id");
+        assert!(format!("{err:#}").contains("open.md"), "{err:#}");
     }
 
     #[test]
