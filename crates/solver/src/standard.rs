@@ -717,7 +717,12 @@ impl<'a> StandardSystem<'a> {
         stats.time_solve += t0.elapsed();
         stats.elements = self.sys.h.node_count();
         stats.leaves = self.sys.h.leaves.len();
-        stats.links = self.sys.h.link_count();
+        // The closure links (crate::closure) are counted apart, as in the gathering solve.
+        let closing = (self.sys.h.links().iter())
+            .filter(|l| crate::closure::is_closure_link(&prep.patches.patches, l))
+            .count();
+        stats.links = self.sys.h.link_count() - closing;
+        stats.closure_links = closing;
         let mut sol = Solution::new(
             prep.patches.patches.clone(),
             prep.patches.by_surface.clone(),
