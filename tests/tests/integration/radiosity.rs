@@ -46,7 +46,12 @@ fn white_furnace_every_tree_basis() {
 
 #[test]
 fn unoccluded_receiver_average_is_rho_f_e() {
-    // Ziegler's "Unoccluded" scene: black emitter, so B̄(S0) = ρ₀ F(S0 → S1) E exactly.
+    // Ziegler's "Unoccluded" scene: black emitter, so B̄(S0) = ρ₀ F(S0 → S1) E. Every
+    // link's constant entry is the exact unoccluded form factor, so without closure links
+    // the receiver's average is exact; the closure links (wavelux_solver::closure) charge
+    // each leaf's projection defect δ_i against the leaf's own radiosity, which moves the
+    // average by Σ|i| δ_i B_i / |S0|, a second-order term bounded by the refinement
+    // threshold ε times B̄ (the defect is about ε, Σ|i| δ_i = 0). So the tolerance is ε.
     let scene = unoccluded();
     let corners = |shape: &Shape| match shape {
         Shape::Parallelogram {
@@ -67,12 +72,13 @@ fn unoccluded_receiver_average_is_rho_f_e() {
     )
     .unwrap();
     let exact = ZIEGLER_RHO0 * f * ZIEGLER_EMISSION;
+    let eps = 1e-3;
     for basis in [BasisKind::Haar, BasisKind::Multiwavelet(3)] {
         let sol = solve(
             &scene,
             &SolverConfig {
                 basis,
-                eps: 1e-3,
+                eps,
                 max_level: 4,
                 ..SolverConfig::default()
             },
@@ -80,7 +86,7 @@ fn unoccluded_receiver_average_is_rho_f_e() {
         .unwrap();
         let avg = sol.surface_average(0)[0];
         assert!(
-            (avg - exact).abs() < 1e-4 * exact,
+            (avg - exact).abs() < eps * exact,
             "{}: {avg} vs {exact}",
             basis.name()
         );
