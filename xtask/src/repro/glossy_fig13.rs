@@ -309,14 +309,9 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             "",
             Tolerance::AtMost(0.99),
         )
-        .deviation(
-            Tolerance::AtMost(1.0),
-            "measured while writing this reproduction (3 and 6 rounds): no round adds a \
-             link into patch 3, with or without importance (see the two link rows), so \
-             patch 3 keeps its V⁰ average in both runs and the ratio is 1; suspected cause, \
-             not yet confirmed: a receiver on patch 3 weighs candidates by the importance \
-             arriving from what it sees (patch 2, a 1e-4 m² patch), which stays far below \
-             the importance patch 2's own receivers get from patch 3",
+        .comment(
+            "the importance oracle adds no link into patch 3 in our runs (see the two link \
+             rows): an open failure of issue 16, listed in docs/reproductions/open-failures.md",
         ),
     );
     r.rows.push(Row::new(
