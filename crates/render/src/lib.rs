@@ -9,6 +9,9 @@
 //!   equal-area support map);
 //! - [`meshless_field`]: [`MeshlessField`], a `wavelux-meshless` relighting result
 //!   (direct lighting composited with the indirect expansion, Meshless §3.3);
+//! - [`radiance`]: the [`RadianceField`] trait (radiance `L(x, ω)` at a hit: a
+//!   glossy solution, the glossy path tracer, or any radiosity field as `B/π`) and
+//!   [`render_radiance`], its images;
 //! - [`render`](mod@render): images of a field, optionally with one-bounce final gather
 //!   (Glossy §5.5) or exact direct light plus the field's indirect part;
 //! - [`direct`]: exact direct light (unoccluded form factors times kernel-weighted
@@ -17,7 +20,8 @@
 //!   I/O, error metrics and false-colour error maps; every file is written through a
 //!   temporary file and an atomic rename;
 //! - [`reference`]: a Monte Carlo path tracer for diffuse scenes (the ground truth for
-//!   scenes without closed forms), and [`reference::volume`], a particle tracer for
+//!   scenes without closed forms), [`reference::glossy`], its glossy twin (Ward BRDFs,
+//!   cosine-power emitters, `radiance_at(point, ω)`), and [`reference::volume`], a particle tracer for
 //!   voxel media (the ground truth of the volume method);
 //! - [`texels`]: lightmap-like texel grids over every lit side at a fixed density,
 //!   any field evaluated on them, and the area-weighted relative L1 error of the
@@ -37,6 +41,7 @@ pub mod export;
 pub mod field;
 pub mod image;
 pub mod meshless_field;
+pub mod radiance;
 pub mod reference;
 pub mod render;
 mod sampling;
@@ -47,6 +52,8 @@ pub use direct::DirectLight;
 pub use field::{EmitterSample, RadiosityField, SolutionField, SurfacePoint, side_average};
 pub use image::{ErrorMetrics, Image, ToneMap, write_atomic};
 pub use meshless_field::{Component, IndirectSource, MeshlessField};
+pub use radiance::{Diffuse, GlossyField, RadianceField, RadianceOptions, render_radiance};
+pub use reference::glossy::{GlossyTracer, TracedRadiance};
 pub use reference::{PathTracer, ReferenceOptions, SurfaceEstimate};
 pub use render::{RenderOptions, RenderStats, render};
 pub use texels::{Texel, TexelGrid, TexelMetrics, TexelValues};

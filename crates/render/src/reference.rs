@@ -34,9 +34,11 @@
 //! hits, so only paths with at least one bounce count.
 //!
 //! Materials: reflectance and emission times their texture means (the same constants
-//! the solver uses); a Ward lobe is ignored (diffuse transport only); directional
+//! the solver uses); a Ward lobe is ignored here (diffuse transport only: scenes with
+//! Ward lobes or cosine-power emitters are traced by [`glossy::GlossyTracer`]); directional
 //! (cosine-power) emitters are rejected; participating media are ignored.
 
+pub mod glossy;
 pub mod volume;
 
 use glam::DVec3;
