@@ -155,6 +155,11 @@ fn averages(scene: &Scene) -> (Vec<[f64; 3]>, usize) {
     )
 }
 
+/// Issue 11 §4: scale ×1e±4 and a rigid motion (alone and with scale 1e4) change no
+/// surface average by more than 1e-9 relative. Nothing but rounding separates the runs:
+/// the refinement makes the same decisions (equal link counts), the shadow rays are
+/// exact f64 tests in a unit-size frame of the accelerator, and the measured change is
+/// ~1e-14 (rounding of the transformed coordinates).
 #[test]
 fn invariant_under_scale_and_rigid_motion() {
     let (base, links) = averages(&small_scene(1.0, DMat4::IDENTITY));
@@ -165,10 +170,17 @@ fn invariant_under_scale_and_rigid_motion() {
     for (scale, m, tol) in [
         (1e-4, DMat4::IDENTITY, 1e-9),
         (1e4, DMat4::IDENTITY, 1e-9),
-        (1.0, motion, 1e-6),
+        (1.0, motion, 1e-9),
+        (1e4, motion, 1e-9),
     ] {
         let (v, l) = averages(&small_scene(scale, m));
-        println!("scale {scale}: links {l} vs {links}");
+        let mut worst: f64 = 0.0;
+        for (a, b) in base.iter().zip(&v) {
+            for c in 0..3 {
+                worst = worst.max((a[c] - b[c]).abs() / a[c].abs().max(1e-12));
+            }
+        }
+        println!("scale {scale}: links {l} vs {links}, largest relative change {worst:.2e}");
         for (a, b) in base.iter().zip(&v) {
             for c in 0..3 {
                 let d = (a[c] - b[c]).abs() / a[c].abs().max(1e-12);
