@@ -33,7 +33,9 @@ use glam::{DVec2, DVec3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 use wavelux_geometry::Ray;
+use wavelux_geometry::formfactor::area_form_factor;
 use wavelux_quadrature::{Corner, RuleNd, SquarePair, singular::square_pair_rule};
+use wavelux_support::Coverage;
 
 use crate::basis::{CHILDREN, HaarStep, NodeKey, TYPES};
 use crate::directions::DirectionKind;
@@ -186,6 +188,38 @@ struct Acc {
     rays: u64,
 }
 
+impl Acc {
+    fn new() -> Self {
+        Self {
+            q: Box::new([[[0.0; 3]; CHILDREN]; CHILDREN]),
+            kmin: f64::INFINITY,
+            kmax: f64::NEG_INFINITY,
+            samples: 0,
+            rays: 0,
+        }
+    }
+
+    /// Adds `k ×` the integrals of `o` (its kernel range and counts unscaled).
+    fn merge_scaled(&mut self, o: &Acc, k: f64) {
+        for (a, b) in self.q.iter_mut().zip(o.q.iter()) {
+            for (x, y) in a.iter_mut().zip(b) {
+                for c in 0..3 {
+                    x[c] += k * y[c];
+                }
+            }
+        }
+        self.kmin = self.kmin.min(o.kmin);
+        self.kmax = self.kmax.max(o.kmax);
+        self.samples += o.samples;
+        self.rays += o.rays;
+    }
+}
+
+/// Child-cell pairs whose centres are closer than this many times the sum of their
+/// bounding radii are near: the Gauss rule on the `1/r²` kernel is rescaled there
+/// (see [`Transport::near_scale`]).
+pub const NEAR_FIELD: f64 = 1.0;
+
 impl<'a> Transport<'a> {
     /// A transport context.
     ///
@@ -309,13 +343,7 @@ impl<'a> Transport<'a> {
     /// Computes the coefficients of the link `send → recv`; `stream` seeds the jitter.
     #[must_use]
     pub fn compute(&self, send: End, recv: End, stream: u64) -> LinkValues {
-        let mut acc = Acc {
-            q: Box::new([[[0.0; 3]; CHILDREN]; CHILDREN]),
-            kmin: f64::INFINITY,
-            kmax: f64::NEG_INFINITY,
-            samples: 0,
-            rays: 0,
-        };
+        let mut acc = Acc::new();
         let mut rng = Pcg64::seed_from_u64(stream);
         let ps = &self.scene.patches[send.patch];
         let pr = &self.scene.patches[recv.patch];
@@ -360,7 +388,18 @@ impl<'a> Transport<'a> {
                     self.touching(&rc, &scs[cs])
                 }
             });
-            for (yr, wy) in gauss(r0, hr2) {
+            let ys = gauss(r0, hr2);
+            // Near, non-touching child pairs of planar pieces: their Gauss samples go to
+            // a separate accumulator, rescaled to the exact form factor below.
+            let scale: [Option<f64>; 4] = std::array::from_fn(|cs| {
+                if rules[cs].is_some() {
+                    return None;
+                }
+                self.near_scale(pr, r0, hr2, ps, s0s[cs], hs2, &ys, &xs_pts[cs])
+            });
+            let mut near: [Option<Acc>; 4] =
+                std::array::from_fn(|cs| scale[cs].map(|_| Acc::new()));
+            for &(yr, wy) in &ys {
                 let w_y = hr2 * hr2 * wy;
                 let Some(ry) = self.receiver_point(recv, yr) else {
                     continue;
@@ -369,16 +408,25 @@ impl<'a> Transport<'a> {
                     if rules[cs].is_some() {
                         continue;
                     }
+                    let target = match near[cs].as_mut() {
+                        Some(a) => a,
+                        None => &mut acc,
+                    };
                     for (xs, wx) in &xs_pts[cs] {
                         // Area density of the point (its weight's inverse).
                         let dens = 1.0 / (hs2 * hs2 * wx * ps.support.jacobian(xs.x, xs.y));
                         self.pair(
-                            send, recv, &ry, *xs, w_y, dens, !reverse, cs, cr, &mut rng, &mut acc,
+                            send, recv, &ry, *xs, w_y, dens, !reverse, cs, cr, &mut rng, target,
                         );
                     }
                 }
                 if reverse {
                     self.reverse(send, recv, &ry, w_y, &rules, cr, &mut rng, &mut acc);
+                }
+            }
+            for (cs, a) in near.iter().enumerate() {
+                if let (Some(a), Some(k)) = (a, scale[cs]) {
+                    acc.merge_scaled(a, k);
                 }
             }
             // Touching child pairs: Sauter–Schwab rules, x and y together.
@@ -411,6 +459,57 @@ impl<'a> Transport<'a> {
             }
         }
         self.finish(send, recv, &acc)
+    }
+
+    /// The correction of a near child pair (receiver cell `[r0, r0+hr]²` of `pr`,
+    /// sender cell `[s0, s0+hs]²` of `ps`) that shares no full edge or single corner
+    /// (those take the singular rules): the exact unoccluded `∫∫ cos θ_x cos θ_y / r²
+    /// dA_x dA_y` of the two planar pieces (contour-integral form factor of
+    /// `wavelux-geometry`, robust for shared partial edges: triangle supports of a
+    /// mesh meet along edges with different parametrisations) over the same integral
+    /// by the Gauss points `ys` × `xs` (unit-square weights). The pair's samples
+    /// (visibility, BRDF, direction cells) are multiplied by it, as the diffuse
+    /// solver does for near pairs at its splitting limit. `None` when the pair is far,
+    /// a piece is not a planar polygon, or the sender cell is not all real.
+    #[allow(clippy::too_many_arguments)]
+    fn near_scale(
+        &self,
+        pr: &crate::patch::Patch,
+        r0: DVec2,
+        hr: f64,
+        ps: &crate::patch::Patch,
+        s0: DVec2,
+        hs: f64,
+        ys: &[(DVec2, f64)],
+        xs: &[(DVec2, f64)],
+    ) -> Option<f64> {
+        let (cr, rr) = pr.support.bounding_sphere(r0.x, r0.y, hr);
+        let (cs, rs) = ps.support.bounding_sphere(s0.x, s0.y, hs);
+        if (cr - cs).length() >= NEAR_FIELD * (rr + rs) {
+            return None;
+        }
+        if ps.support.coverage(s0.x, s0.y, hs) != Coverage::Full {
+            return None;
+        }
+        let a = pr.support.cell_polygon(r0.x, r0.y, hr)?;
+        let b = ps.support.cell_polygon(s0.x, s0.y, hs)?;
+        let exact = std::f64::consts::PI * area_form_factor(&a, &b).ok()?;
+        let mut gauss = 0.0;
+        for (y, wy) in ys {
+            let (yp, ny) = pr.support.point_normal(y.x, y.y);
+            let wy = wy * hr * hr * pr.support.jacobian(y.x, y.y);
+            for (x, wx) in xs {
+                let (xp, nx) = ps.support.point_normal(x.x, x.y);
+                let d = yp - xp;
+                let r2 = d.length_squared();
+                let (cx, cy) = (nx.dot(d), -ny.dot(d));
+                if crate::positive(r2) && cx > 0.0 && cy > 0.0 {
+                    let wx = wx * hs * hs * ps.support.jacobian(x.x, x.y);
+                    gauss += wy * wx * cx * cy / (r2 * r2);
+                }
+            }
+        }
+        (exact.is_finite() && exact >= 0.0 && gauss > 0.0).then(|| exact / gauss)
     }
 
     /// Geometry and material of a receiver point.

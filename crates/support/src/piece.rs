@@ -458,6 +458,45 @@ impl Support {
         ]
     }
 
+    /// The exact planar polygon of the sub-square `[s0, s0+h] × [t0, t0+h]` of a
+    /// parallelogram or triangle support (both maps send sub-squares to straight-edged
+    /// quadrilaterals: on a triangle, `s = const` is a segment between the edges and
+    /// `t = const` a ray from `a`), counter-clockwise about [`Support::normal`], with
+    /// coincident corners (a triangle's collapsed vertex) merged. `None` for other
+    /// maps or a degenerate image. The whole sub-square, virtual points included.
+    pub fn cell_polygon(&self, s0: f64, t0: f64, h: f64) -> Option<Vec<DVec3>> {
+        if !matches!(
+            self.map,
+            SupportMap::Parallelogram { .. } | SupportMap::Triangle { .. }
+        ) {
+            return None;
+        }
+        let (_, rad) = self.bounding_sphere(s0, t0, h);
+        let tol = 1e-12 * rad.max(f64::MIN_POSITIVE);
+        let mut poly: Vec<DVec3> = Vec::with_capacity(4);
+        for v in self.corners(s0, t0, h) {
+            if poly.last().is_none_or(|l| (*l - v).length() > tol) {
+                poly.push(v);
+            }
+        }
+        if poly.len() > 1 && (poly[0] - poly[poly.len() - 1]).length() <= tol {
+            poly.pop();
+        }
+        if poly.len() < 3 {
+            return None;
+        }
+        // Orientation from the polygon's (Newell) normal.
+        let mut n = DVec3::ZERO;
+        for (i, a) in poly.iter().enumerate() {
+            let b = poly[(i + 1) % poly.len()];
+            n += a.cross(b);
+        }
+        if n.dot(self.normal) < 0.0 {
+            poly.reverse();
+        }
+        Some(poly)
+    }
+
     /// A bounding sphere (centre, radius) of the image of a sub-square.
     pub fn bounding_sphere(&self, s0: f64, t0: f64, h: f64) -> (DVec3, f64) {
         match self.map {
