@@ -57,15 +57,16 @@ pub mod tree;
 pub mod twoscale;
 
 use std::collections::BTreeSet;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 use wavelux_scene::Scene;
 
-use crate::basis::BasisKind;
+use crate::basis::{BasisKind, TreeBasis};
 use crate::error::SolverError;
 use crate::hierarchy::{Hierarchy, NodeKey, Oracle, SplitPolicy};
 use crate::solution::{Energy, Solution, Statistics};
+use crate::support::Patch;
 use crate::system::System;
 use crate::transfer::Visibility;
 use crate::{LinearMethod, ParamKind, Prepared, SolverConfig};
@@ -158,14 +159,14 @@ fn bad(field: &'static str, value: impl std::fmt::Display, reason: &'static str)
 }
 
 impl ShootConfig {
-    /// Checks every field against its documented range.
+    /// Checks every field against its documented range: the fields shared with
+    /// [`SolverConfig`] by [`SolverConfig::validate`] (one check for both solvers), the
+    /// shooting ones here.
     ///
     /// # Errors
     /// [`SolverError::InvalidConfig`] naming the first bad field.
     pub fn validate(&self) -> Result<(), SolverError> {
-        if !(self.eps.is_finite() && self.eps > 0.0) {
-            return Err(bad("eps", self.eps, "must be finite and > 0"));
-        }
+        self.solver_config().validate()?;
         if self.control_depth > 3 {
             return Err(bad("control_depth", self.control_depth, "must be in 0..=3"));
         }
@@ -180,7 +181,7 @@ impl ShootConfig {
         {
             return Err(bad("push_pull.gauss", gauss, "must be in 1..=32"));
         }
-        self.solver_config().validate()
+        Ok(())
     }
 
     /// The gathering configuration sharing this one's discretisation (used to prepare
@@ -232,30 +233,9 @@ pub fn shoot(scene: &Scene, config: &ShootConfig) -> Result<Solution, SolverErro
 /// As [`shoot`]; [`SolverError::InvalidConfig`] if `config.basis` differs from the
 /// prepared basis.
 pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution, SolverError> {
-    config.validate()?;
-    if prep.basis.kind() != config.basis {
-        return Err(bad(
-            "basis",
-            config.basis.name(),
-            "must equal the prepared basis",
-        ));
-    }
-    if config.push_pull == PushPull::Precomputed
-        && !prep
-            .patches
-            .patches
-            .iter()
-            .all(|p| p.support.is_equal_area())
-    {
-        return Err(bad(
-            "push_pull",
-            "Precomputed",
-            "precomputed push/pull needs equal-area supports (constant Jacobian, VirtualMesh §5.2); use Natural",
-        ));
-    }
+    check_prepared(prep, config)?;
     let t0 = Instant::now();
     let patches = &prep.patches.patches;
-    let np = patches.len();
     let ctx = crate::TransferCtx::new(
         patches,
         &prep.accel,
@@ -264,22 +244,7 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
         config.solver_config().transfer_options(),
     )?;
     let ts = TwoScale::new(config.push_pull, &prep.basis, patches)?;
-    let n = prep.basis.n();
-    // Lines 1–4: B̃ = ΔB̃ = Ẽ at the roots.
-    let mut trees: Vec<Tree> = (0..np).map(|p| Tree::new(p, &ts)).collect();
-    for (p, tree) in trees.iter_mut().enumerate() {
-        let e = patches[p].emission;
-        let sq = patches[p].support.area.sqrt();
-        for ch in 0..3 {
-            for a in 0..n {
-                // The constant E has coefficients E √A ∫ψ_a (ψ_0 ≡ 1) on the whole
-                // support; only its real points emit (the moments are real moments).
-                let v = e[ch] * sq * prep.basis.integrals()[a];
-                tree.b[ch * n + a] = v;
-                tree.db[ch * n + a] = v;
-            }
-        }
-    }
+    let mut trees = initial_trees(patches, &prep.basis, &ts);
     let mut unshot: Vec<[f64; 3]> = trees.iter().map(|t| t.integral(&t.db)).collect();
     // Emitted power: E × real area (exact for equal-area maps).
     let mut emitted = [0.0; 3];
@@ -302,105 +267,232 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
             d => d,
         },
     };
-    let e_i: f64 = emitted.iter().sum();
-    // Curved supports with a concave island see themselves (VirtualMesh §5.3).
-    let sees_itself: Vec<bool> = patches.iter().map(|p| p.support.sees_itself()).collect();
-    let mut escaped = [0.0; 3];
-    let mut counts = Counts::default();
-    let mut shooters: BTreeSet<u32> = BTreeSet::new();
-    let mut record = Vec::new();
-    let t_shoot = Instant::now();
-    while e_i > 0.0 && record.len() < config.max_shots {
-        let e_r: f64 = unshot.iter().flatten().sum();
-        if (e_i - e_r) / e_i >= config.convergence {
-            break;
-        }
-        // Line 6: Southwell (ties: lowest index).
-        let mut best = None;
-        let mut best_p = 0.0;
-        for (p, u) in unshot.iter().enumerate() {
-            let s: f64 = u.iter().sum();
-            if s > best_p {
-                best_p = s;
-                best = Some(p);
+    let shots = Shots::run(
+        &ctx,
+        &ts,
+        params,
+        config,
+        emitted.iter().sum(),
+        &mut trees,
+        &mut unshot,
+    );
+    Ok(assemble(prep, &ctx, &ts, &trees, emitted, shots, t0))
+}
+
+/// The checks [`shoot_prepared`] adds to [`ShootConfig::validate`]: the prepared basis
+/// and, for precomputed push/pull, equal-area supports.
+fn check_prepared(prep: &Prepared, config: &ShootConfig) -> Result<(), SolverError> {
+    config.validate()?;
+    if prep.basis.kind() != config.basis {
+        return Err(bad(
+            "basis",
+            config.basis.name(),
+            "must equal the prepared basis",
+        ));
+    }
+    if config.push_pull == PushPull::Precomputed
+        && !prep
+            .patches
+            .patches
+            .iter()
+            .all(|p| p.support.is_equal_area())
+    {
+        return Err(bad(
+            "push_pull",
+            "Precomputed",
+            "precomputed push/pull needs equal-area supports (constant Jacobian, VirtualMesh §5.2); use Natural",
+        ));
+    }
+    Ok(())
+}
+
+/// Algorithm 1, lines 1–4: one element tree per patch with `B̃ = ΔB̃ = Ẽ` at the root.
+fn initial_trees(patches: &[Patch], basis: &TreeBasis, ts: &TwoScale<'_>) -> Vec<Tree> {
+    let n = basis.n();
+    let mut trees: Vec<Tree> = (0..patches.len()).map(|p| Tree::new(p, ts)).collect();
+    for (p, tree) in trees.iter_mut().enumerate() {
+        let e = patches[p].emission;
+        let sq = patches[p].support.area.sqrt();
+        for ch in 0..3 {
+            for a in 0..n {
+                // The constant E has coefficients E √A ∫ψ_a (ψ_0 ≡ 1) on the whole
+                // support; only its real points emit (the moments are real moments).
+                let v = e[ch] * sq * basis.integrals()[a];
+                tree.b[ch * n + a] = v;
+                tree.db[ch * n + a] = v;
             }
         }
-        let Some(i) = best else { break };
-        // Line 7: Push/Pull-Residuals; the shooter tree leaves its slot, which a decoy
-        // takes when the patch sees itself.
-        let mut own = std::mem::take(&mut trees[i]);
-        let power = own.integral(&own.db);
-        let self_shot = sees_itself[i] && patches[i].reflects();
-        if self_shot {
-            trees[i] = Tree::new(i, &ts);
-        }
-        let (arr, refl, cnt) = {
-            let shooter = Shooter::new(&own, &ts);
+    }
+    trees
+}
+
+/// What the shooting loop (Algorithm 1, lines 5–13) did.
+struct Shots {
+    /// Power shot minus power arriving at reflecting receivers, per channel (the
+    /// operator's loss, [`Energy::operator_loss`]).
+    lost: [f64; 3],
+    /// Oracle and block counts.
+    counts: Counts,
+    /// Input primitives that shot.
+    shooters: BTreeSet<u32>,
+    /// Convergence rate after each shot.
+    record: Vec<f64>,
+    /// Wall time of the loop.
+    time: Duration,
+}
+
+impl Shots {
+    /// Shoots until the convergence rate reaches `config.convergence` or
+    /// `config.max_shots` shots were made; `e_i` is the emitted power (RGB summed).
+    fn run(
+        ctx: &crate::TransferCtx<'_>,
+        ts: &TwoScale<'_>,
+        params: Params,
+        config: &ShootConfig,
+        e_i: f64,
+        trees: &mut [Tree],
+        unshot: &mut [[f64; 3]],
+    ) -> Self {
+        let patches = ctx.patches;
+        let np = patches.len();
+        // Curved supports with a concave island see themselves (VirtualMesh §5.3).
+        let sees_itself: Vec<bool> = patches.iter().map(|p| p.support.sees_itself()).collect();
+        let mut out = Self {
+            lost: [0.0; 3],
+            counts: Counts::default(),
+            shooters: BTreeSet::new(),
+            record: Vec::new(),
+            time: Duration::ZERO,
+        };
+        let t_shoot = Instant::now();
+        while e_i > 0.0 && out.record.len() < config.max_shots {
+            let e_r: f64 = unshot.iter().flatten().sum();
+            if (e_i - e_r) / e_i >= config.convergence {
+                break;
+            }
+            // Line 6: Southwell (ties: lowest index).
+            let mut best = None;
+            let mut best_p = 0.0;
+            for (p, u) in unshot.iter().enumerate() {
+                let s: f64 = u.iter().sum();
+                if s > best_p {
+                    best_p = s;
+                    best = Some(p);
+                }
+            }
+            let Some(i) = best else { break };
+            // Line 7: Push/Pull-Residuals; the shooter tree leaves its slot, which a
+            // decoy takes when the patch sees itself.
+            let mut own = std::mem::take(&mut trees[i]);
+            let power = own.integral(&own.db);
+            let self_shot = sees_itself[i] && patches[i].reflects();
+            if self_shot {
+                trees[i] = Tree::new(i, ts);
+            }
             // Per-shot tolerance in proportion to the shot's share of the emitted power.
             let share = power.iter().sum::<f64>() / e_i;
-            let tr = Transfer {
-                ctx: &ctx,
-                ts: &ts,
-                shooter: &shooter,
-                p: Params {
-                    tol: params.tol * share,
-                    ..params
-                },
+            let p = Params {
+                tol: params.tol * share,
+                ..params
             };
-            // Lines 8–11, receivers in parallel, sums in patch order.
-            let parts: Vec<([f64; 3], [f64; 3], Counts)> = trees
-                .par_iter_mut()
-                .enumerate()
-                .map(|(j, t)| {
-                    if (j == i && !self_shot) || !patches[j].reflects() {
-                        return ([0.0; 3], [0.0; 3], Counts::default());
-                    }
-                    let (deps, c) = tr.run(j);
-                    let mut arr = [0.0; 3];
-                    let mut refl = [0.0; 3];
-                    for d in deps {
-                        let (a, r) = t.deposit(d.key, &d.h, patches[j].reflectance, &ts);
-                        for ch in 0..3 {
-                            arr[ch] += a[ch];
-                            refl[ch] += r[ch];
-                        }
-                    }
-                    (arr, refl, c)
-                })
-                .collect();
-            let mut arr = vec![[0.0; 3]; np];
-            let mut refl = vec![[0.0; 3]; np];
-            let mut cnt = Counts::default();
-            for (j, (a, r, c)) in parts.into_iter().enumerate() {
-                arr[j] = a;
-                refl[j] = r;
-                cnt.add(&c);
+            let (arr, refl, cnt) = shoot_once(ctx, ts, p, &own, i, self_shot, trees);
+            out.counts.add(&cnt);
+            // Line 12, then the decoy's levels, residuals and subdivisions come back.
+            own.clear_unshot();
+            unshot[i] = [0.0; 3];
+            if self_shot {
+                let decoy = std::mem::take(&mut trees[i]);
+                own.absorb(&decoy, ts);
             }
-            (arr, refl, cnt)
-        };
-        counts.add(&cnt);
-        // Line 12, then the decoy's levels, residuals and subdivisions come back.
-        own.clear_unshot();
-        unshot[i] = [0.0; 3];
-        if self_shot {
-            let decoy = std::mem::take(&mut trees[i]);
-            own.absorb(&decoy, &ts);
-        }
-        trees[i] = own;
-        for ch in 0..3 {
-            let mut got = 0.0;
-            for j in 0..np {
-                got += arr[j][ch];
-                unshot[j][ch] += refl[j][ch];
+            trees[i] = own;
+            for ch in 0..3 {
+                let mut got = 0.0;
+                for j in 0..np {
+                    got += arr[j][ch];
+                    unshot[j][ch] += refl[j][ch];
+                }
+                out.lost[ch] += power[ch] - got;
             }
-            escaped[ch] += power[ch] - got;
+            out.shooters.insert(patches[i].prim);
+            let e_r: f64 = unshot.iter().flatten().sum();
+            out.record.push((e_i - e_r) / e_i);
         }
-        shooters.insert(patches[i].prim);
-        let e_r: f64 = unshot.iter().flatten().sum();
-        record.push((e_i - e_r) / e_i);
+        out.time = t_shoot.elapsed();
+        out
     }
-    let time_shoot = t_shoot.elapsed();
-    // Output: a linkless hierarchy over all element trees.
+}
+
+/// Power arriving at and reflected by each patch, per channel, and the counts of a
+/// shot.
+type ShotResult = (Vec<[f64; 3]>, Vec<[f64; 3]>, Counts);
+
+/// Algorithm 1, lines 8–11: HR-Transfer of patch `i`'s residual (`own`) onto every
+/// other reflecting patch (onto its decoy in `trees[i]` when `self_shot`); receivers in
+/// parallel, sums in patch order.
+fn shoot_once(
+    ctx: &crate::TransferCtx<'_>,
+    ts: &TwoScale<'_>,
+    p: Params,
+    own: &Tree,
+    i: usize,
+    self_shot: bool,
+    trees: &mut [Tree],
+) -> ShotResult {
+    let patches = ctx.patches;
+    let shooter = Shooter::new(own, ts);
+    let tr = Transfer {
+        ctx,
+        ts,
+        shooter: &shooter,
+        p,
+    };
+    let parts: Vec<([f64; 3], [f64; 3], Counts)> = trees
+        .par_iter_mut()
+        .enumerate()
+        .map(|(j, t)| {
+            if (j == i && !self_shot) || !patches[j].reflects() {
+                return ([0.0; 3], [0.0; 3], Counts::default());
+            }
+            let (deps, c) = tr.run(j);
+            let mut arr = [0.0; 3];
+            let mut refl = [0.0; 3];
+            for d in deps {
+                let (a, r) = t.deposit(d.key, &d.h, patches[j].reflectance, ts);
+                for ch in 0..3 {
+                    arr[ch] += a[ch];
+                    refl[ch] += r[ch];
+                }
+            }
+            (arr, refl, c)
+        })
+        .collect();
+    let np = patches.len();
+    let mut arr = vec![[0.0; 3]; np];
+    let mut refl = vec![[0.0; 3]; np];
+    let mut cnt = Counts::default();
+    for (j, (a, r, c)) in parts.into_iter().enumerate() {
+        arr[j] = a;
+        refl[j] = r;
+        cnt.add(&c);
+    }
+    (arr, refl, cnt)
+}
+
+/// The output of a shooting run: a linkless hierarchy over all element trees, the
+/// consistent coefficients at every node, the energy account (absorbed and unshot
+/// from the trees, escape measured by rays) and the statistics.
+fn assemble(
+    prep: &Prepared,
+    ctx: &crate::TransferCtx<'_>,
+    ts: &TwoScale<'_>,
+    trees: &[Tree],
+    emitted: [f64; 3],
+    shots: Shots,
+    t0: Instant,
+) -> Solution {
+    let patches = &prep.patches.patches;
+    let n = prep.basis.n();
+    let np = patches.len();
     let keys: Vec<NodeKey> = trees.iter().flat_map(|t| t.keys.iter().copied()).collect();
     let h = Hierarchy::compile_with_nodes(n, np, &keys, &[]);
     let system = System::new(h, &prep.basis, patches);
@@ -409,17 +501,17 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
     let mut leaf_h: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; system.dim()]);
     let mut energy = Energy {
         emitted,
-        operator_loss: escaped,
+        operator_loss: shots.lost,
         ..Energy::default()
     };
     // The shot radiosity B̃ − ΔB̃ at every node, for the escape measurement.
     let mut node_shot: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; nn * n]);
     let mut tree_bytes = 0;
-    for t in &trees {
+    for t in trees {
         tree_bytes += t.bytes();
-        let b = t.consistent(&t.b, &ts);
-        let db = t.consistent(&t.db, &ts);
-        let hc = t.consistent(&t.h, &ts);
+        let b = t.consistent(&t.b, ts);
+        let db = t.consistent(&t.db, ts);
+        let hc = t.consistent(&t.h, ts);
         let un = t.integral(&t.db);
         let ih = t.integral(&t.h);
         let rho = patches[t.keys[0].patch as usize].reflectance;
@@ -446,21 +538,22 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
         }
     }
     let [cells_empty, cells_partial, cells_full] = system.coverage_counts;
+    let time_shoot = shots.time;
     let stats = Statistics {
         elements: nn,
         leaves: system.h.leaves.len(),
         links: 0,
-        oracle_evals: counts.oracle_evals,
+        oracle_evals: shots.counts.oracle_evals,
         kernel_evals: ctx.kernel_evals.load(std::sync::atomic::Ordering::Relaxed),
         rays: ctx.rays.load(std::sync::atomic::Ordering::Relaxed),
         bytes: tree_bytes + system.h.bytes(),
         time_setup: prep.setup_time + t0.elapsed().saturating_sub(time_shoot),
         time_solve: time_shoot,
-        iterations: vec![record.len()],
+        iterations: vec![shots.record.len()],
         stages: 1,
-        shots: record.len(),
-        shooting_surfaces: shooters.len(),
-        shot_convergence: record,
+        shots: shots.record.len(),
+        shooting_surfaces: shots.shooters.len(),
+        shot_convergence: shots.record,
         cells_empty,
         cells_partial,
         cells_full,
@@ -481,5 +574,5 @@ pub fn shoot_prepared(prep: &Prepared, config: &ShootConfig) -> Result<Solution,
         Vec::new(),
     );
     sol.set_escape(esc);
-    Ok(sol)
+    sol
 }
