@@ -37,7 +37,7 @@ use obvhs::ray::{Ray as FRay, RayHit};
 use rayon::prelude::*;
 
 use crate::GeometryError;
-use crate::intersect::triangle_raw;
+use crate::intersect::WatertightRay;
 use crate::primitive::{Aabb, Hit, PrimId, Primitive, Ray, Triangle};
 
 /// Relative end-point epsilon of occlusion queries (times the scene diagonal).
@@ -264,15 +264,16 @@ impl Accel {
         let mut rh = RayHit::none();
         let slack = 1e-5 * self.diag;
         let (fray, t_start) = self.frame.ray(&self.bounds, ray, tmin, tmax)?;
+        let wray = WatertightRay::new(ray);
         bvh.ray_traverse(fray, &mut rh, |_, slot| {
-            let hit = match self.slots[slot] {
-                Slot::Tri(v, id) => triangle_raw(&v, ray, tmin, best_t).map(|(t, b, c)| {
-                    let tri = Triangle { v };
+            let hit = match &self.slots[slot] {
+                Slot::Tri(v, id) => wray.triangle(v, tmin, best_t).map(|(t, b, c)| {
+                    let tri = Triangle { v: *v };
                     let mut h = tri.intersect_from(ray, t, b, c);
-                    h.prim = id;
+                    h.prim = *id;
                     h
                 }),
-                Slot::Other(id) => {
+                &Slot::Other(id) => {
                     self.prims[id as usize]
                         .intersect(ray, tmin, best_t)
                         .map(|mut h| {
@@ -317,10 +318,11 @@ impl Accel {
         let Some((fray, _)) = self.frame.ray(&self.bounds, &ray, 0.0, len) else {
             return false;
         };
+        let wray = WatertightRay::new(&ray);
         !bvh.ray_traverse_miss(fray, |_, slot| {
-            let blocked = match self.slots[slot] {
-                Slot::Tri(v, id) => !is_ignored(id) && triangle_raw(&v, &ray, t0, t1).is_some(),
-                Slot::Other(id) => {
+            let blocked = match &self.slots[slot] {
+                Slot::Tri(v, id) => !is_ignored(*id) && wray.triangle(v, t0, t1).is_some(),
+                &Slot::Other(id) => {
                     if is_ignored(id) {
                         !self.planar[id as usize]
                             && self.prims[id as usize]

@@ -33,55 +33,91 @@ pub const PLANAR_DILATION: f64 = 1e-9;
 /// Watertight ray–triangle test; returns `(t, β, γ)` (barycentric weights of `b`, `c`).
 #[inline]
 pub fn triangle_raw(v: &[DVec3; 3], ray: &Ray, tmin: f64, tmax: f64) -> Option<(f64, f64, f64)> {
-    let d = ray.dir;
-    let ad = d.abs();
-    let kz = if ad.x > ad.y {
-        if ad.x > ad.z { 0 } else { 2 }
-    } else if ad.y > ad.z {
-        1
-    } else {
-        2
-    };
-    let mut kx = (kz + 1) % 3;
-    let mut ky = (kx + 1) % 3;
-    if d[kz] < 0.0 {
-        std::mem::swap(&mut kx, &mut ky);
+    WatertightRay::new(ray).triangle(v, tmin, tmax)
+}
+
+/// The per-ray part of the watertight test (Woop, Benthin & Wald 2013, §3: the
+/// permutation that makes the ray's largest direction component `z` and the shear
+/// constants), computed once per ray and reused for every triangle it meets.
+/// [`WatertightRay::triangle`] returns bit for bit what [`triangle_raw`] returns.
+#[derive(Debug, Clone, Copy)]
+pub struct WatertightRay {
+    origin: [f64; 3],
+    dir: DVec3,
+    /// Axis permutation `(kx, ky, kz)`.
+    k: [usize; 3],
+    /// Shear `(d_kx/d_kz, d_ky/d_kz, 1/d_kz)`.
+    s: [f64; 3],
+}
+
+impl WatertightRay {
+    /// The ray's permutation and shear.
+    #[inline]
+    pub fn new(ray: &Ray) -> Self {
+        let d = ray.dir;
+        let ad = d.abs();
+        let kz = if ad.x > ad.y {
+            if ad.x > ad.z { 0 } else { 2 }
+        } else if ad.y > ad.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        Self {
+            origin: ray.origin.to_array(),
+            dir: d,
+            k: [kx, ky, kz],
+            s: [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]],
+        }
     }
-    let sx = d[kx] / d[kz];
-    let sy = d[ky] / d[kz];
-    let sz = 1.0 / d[kz];
-    let a = v[0] - ray.origin;
-    let b = v[1] - ray.origin;
-    let c = v[2] - ray.origin;
-    let ax = a[kx] - sx * a[kz];
-    let ay = a[ky] - sy * a[kz];
-    let bx = b[kx] - sx * b[kz];
-    let by = b[ky] - sy * b[kz];
-    let cx = c[kx] - sx * c[kz];
-    let cy = c[ky] - sy * c[kz];
-    let u = cx * by - cy * bx;
-    let vv = ax * cy - ay * cx;
-    let w = bx * ay - by * ax;
-    if (u < 0.0 || vv < 0.0 || w < 0.0) && (u > 0.0 || vv > 0.0 || w > 0.0) {
-        return None;
+
+    /// The watertight test against triangle `v` over `t ∈ [tmin, tmax]`: `(t, β, γ)`.
+    #[inline]
+    pub fn triangle(&self, v: &[DVec3; 3], tmin: f64, tmax: f64) -> Option<(f64, f64, f64)> {
+        let [kx, ky, kz] = self.k;
+        let [sx, sy, sz] = self.s;
+        let o = self.origin;
+        // Vertices relative to the origin, permuted: `[x, y, z]` in ray space.
+        let rel = |p: &DVec3| {
+            let p = p.to_array();
+            [p[kx] - o[kx], p[ky] - o[ky], p[kz] - o[kz]]
+        };
+        let (a, b, c) = (rel(&v[0]), rel(&v[1]), rel(&v[2]));
+        let ax = a[0] - sx * a[2];
+        let ay = a[1] - sy * a[2];
+        let bx = b[0] - sx * b[2];
+        let by = b[1] - sy * b[2];
+        let cx = c[0] - sx * c[2];
+        let cy = c[1] - sy * c[2];
+        let u = cx * by - cy * bx;
+        let vv = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        if (u < 0.0 || vv < 0.0 || w < 0.0) && (u > 0.0 || vv > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + vv + w;
+        if det == 0.0 {
+            return None;
+        }
+        // Edge-on triangles (ray in the triangle's plane, to ~1e-10 rad) are not hit: a
+        // segment running inside a planar surface is not occluded by it (no acne between
+        // points of coplanar neighbours); a ray through a shared edge still hits the
+        // other, non-grazed face. Only evaluated for rays that passed the edge tests.
+        let n = (v[1] - v[0]).cross(v[2] - v[0]);
+        if n.dot(self.dir).abs() <= 1e-10 * n.length() {
+            return None;
+        }
+        let t = (u * sz * a[2] + vv * sz * b[2] + w * sz * c[2]) / det;
+        if !(t >= tmin && t <= tmax) {
+            return None;
+        }
+        Some((t, vv / det, w / det))
     }
-    let det = u + vv + w;
-    if det == 0.0 {
-        return None;
-    }
-    // Edge-on triangles (ray in the triangle's plane, to ~1e-10 rad) are not hit: a
-    // segment running inside a planar surface is not occluded by it (no acne between
-    // points of coplanar neighbours); a ray through a shared edge still hits the other,
-    // non-grazed face. Only evaluated for rays that passed the edge tests.
-    let n = (v[1] - v[0]).cross(v[2] - v[0]);
-    if n.dot(d).abs() <= 1e-10 * n.length() {
-        return None;
-    }
-    let t = (u * sz * a[kz] + vv * sz * b[kz] + w * sz * c[kz]) / det;
-    if !(t >= tmin && t <= tmax) {
-        return None;
-    }
-    Some((t, vv / det, w / det))
 }
 
 fn make_hit(ray: &Ray, t: f64, uv: DVec2, normal: DVec3) -> Hit {
