@@ -226,6 +226,13 @@ pub struct SolveArgs {
     /// Write no image (JSON only).
     #[arg(long)]
     pub no_image: bool,
+    /// Also write the radiosity at a lightmap-like texel grid of this density (texels
+    /// per scene unit², every lit side) to OUT/NAME.texels.json, for `compare`.
+    #[arg(long)]
+    pub texels: Option<f64>,
+    /// Path-traced walks per texel of --texels with --method reference.
+    #[arg(long, default_value_t = 1024)]
+    pub texel_paths: u64,
     /// Monte Carlo samples per surface for the error estimate (0: skip the estimate).
     /// With --method reference: samples per surface of the reference itself.
     #[arg(long, default_value_t = 65536)]

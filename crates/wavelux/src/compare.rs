@@ -1,5 +1,7 @@
 //! `wavelux compare A B`: error metrics of A against the reference B, for two JSON
-//! results (per-surface radiosity, matched by name) or two images (EXR/PNG).
+//! results (per-surface radiosity, matched by name), two texel files (the radiosity
+//! function at the same texel grid, `solve --texels`; issue 12 §1 (a)) or two images
+//! (EXR/PNG).
 
 use std::path::Path;
 
@@ -8,6 +10,7 @@ use serde::Serialize;
 use wavelux::render::{Image, ToneMap, image::write_bytes_atomic};
 
 use crate::cli::CompareArgs;
+use crate::pipeline::{TexelFile, read_texels, texel_grid};
 use crate::report;
 
 /// Per-surface comparison.
@@ -64,6 +67,16 @@ fn read_result(p: &Path) -> anyhow::Result<report::Result> {
 /// Runs `compare`.
 pub fn run(c: &CompareArgs) -> anyhow::Result<()> {
     let text = match (is_json(&c.a), is_json(&c.b)) {
+        (true, true) if is_texels(&c.a)? || is_texels(&c.b)? => {
+            if c.map.is_some() {
+                bail!("--map needs two images, not two texel files");
+            }
+            let m = compare_texels(&read_texels(&c.a)?, &read_texels(&c.b)?)?;
+            if !c.quiet {
+                print_texels(&m);
+            }
+            serde_json::to_string_pretty(&m)?
+        }
         (true, true) => {
             if c.map.is_some() {
                 bail!("--map needs two images, not two JSON results");
@@ -170,5 +183,132 @@ fn compare_results(a: &report::Result, b: &report::Result) -> anyhow::Result<Res
         max_relative: max_rel,
         max_z,
         surfaces,
+    })
+}
+
+/// True if `p` is a JSON file whose `schema` is the texel file's.
+fn is_texels(p: &Path) -> anyhow::Result<bool> {
+    let text = std::fs::read_to_string(p).with_context(|| format!("cannot read {p:?}"))?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{p:?} is not JSON"))?;
+    Ok(v.get("schema").and_then(|s| s.as_str()) == Some(crate::pipeline::TEXEL_SCHEMA))
+}
+
+/// The texel metric of one surface side.
+#[derive(Debug, Serialize)]
+struct TexelSide {
+    name: String,
+    back: bool,
+    texels: usize,
+    /// `Σ A |a − b|₁ / Σ A |b − E|₁` over the side's texels.
+    relative_l1: f64,
+}
+
+/// Metrics of two texel files.
+#[derive(Debug, Serialize)]
+struct TexelComparison {
+    kind: &'static str,
+    /// Area-weighted relative L1 of the reflected radiosity over every texel, the
+    /// expected score of an exact answer against `B`'s noise (`noise_floor`, when `B`
+    /// has standard errors), and the largest per-texel relative error.
+    #[serde(flatten)]
+    metrics: wavelux::render::TexelMetrics,
+    /// Texels of `A` whose probe ray missed their own surface side (value zero).
+    unresolved: usize,
+    /// Per surface side.
+    sides: Vec<TexelSide>,
+}
+
+fn print_texels(m: &TexelComparison) {
+    println!(
+        "texels: relative L1 {:.4}%{}, max per-texel {:.4}% ({} texels, {} unresolved)",
+        100.0 * m.metrics.relative_l1,
+        m.metrics.noise_floor.map_or(String::new(), |f| format!(
+            " (reference noise floor {:.4}%)",
+            100.0 * f
+        )),
+        100.0 * m.metrics.max_relative,
+        m.metrics.texels,
+        m.unresolved
+    );
+    for s in &m.sides {
+        println!(
+            "  {:<28} {:<5} {:>6} texels {:>9.4}%",
+            s.name,
+            if s.back { "back" } else { "front" },
+            s.texels,
+            100.0 * s.relative_l1
+        );
+    }
+}
+
+/// `a`'s texels against the reference `b`'s: both must hold the same grid (same scene
+/// and density: every texel at the same point, side and area).
+fn compare_texels(a: &TexelFile, b: &TexelFile) -> anyhow::Result<TexelComparison> {
+    if a.texels.len() != b.texels.len() {
+        bail!(
+            "the texel files hold different grids ({} and {} texels); write both for the \
+same scene with the same --texels density",
+            a.texels.len(),
+            b.texels.len()
+        );
+    }
+    let scale = b
+        .texels
+        .iter()
+        .flat_map(|t| t.point)
+        .fold(0.0f64, |m, x| m.max(x.abs()))
+        .max(f64::MIN_POSITIVE);
+    for (i, (x, y)) in a.texels.iter().zip(&b.texels).enumerate() {
+        let far = (0..3).any(|c| (x.point[c] - y.point[c]).abs() > 1e-9 * scale);
+        if x.surface != y.surface || x.back != y.back || far {
+            bail!(
+                "the texel files hold different grids (texel {i}: {:?} at {:?} and {:?} at \
+{:?}); write both for the same scene with the same --texels density",
+                x.surface,
+                x.point,
+                y.surface,
+                y.point
+            );
+        }
+    }
+    let grid = texel_grid(b);
+    let va: Vec<[f64; 3]> = a.texels.iter().map(|t| t.radiosity).collect();
+    let vb: Vec<[f64; 3]> = b.texels.iter().map(|t| t.radiosity).collect();
+    let se: Option<Vec<[f64; 3]>> = b.texels.iter().map(|t| t.std_error).collect();
+    let metrics = grid.compare(&va, &vb, se.as_deref())?;
+    let mut sides: Vec<TexelSide> = Vec::new();
+    let mut sums: Vec<(f64, f64)> = Vec::new();
+    for (i, t) in b.texels.iter().enumerate() {
+        let k = match sides
+            .iter()
+            .position(|s| s.name == t.surface && s.back == t.back)
+        {
+            Some(k) => k,
+            None => {
+                sides.push(TexelSide {
+                    name: t.surface.clone(),
+                    back: t.back,
+                    texels: 0,
+                    relative_l1: 0.0,
+                });
+                sums.push((0.0, 0.0));
+                sides.len() - 1
+            }
+        };
+        sides[k].texels += 1;
+        for c in 0..3 {
+            sums[k].0 += t.area * (va[i][c] - vb[i][c]).abs();
+            sums[k].1 += t.area * (vb[i][c] - t.emission[c]).abs();
+        }
+    }
+    for (s, (num, den)) in sides.iter_mut().zip(sums) {
+        s.relative_l1 = if den > 0.0 { num / den } else { num };
+    }
+    Ok(TexelComparison {
+        kind: "texels",
+        metrics,
+        unresolved: a.unresolved,
+        sides,
     })
 }

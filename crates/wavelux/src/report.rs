@@ -316,4 +316,7 @@ pub struct Outputs {
     /// Lightmap directory (`--lightmaps`).
     #[serde(default)]
     pub lightmaps: Option<String>,
+    /// Texel file (`--texels`).
+    #[serde(default)]
+    pub texels: Option<String>,
 }

@@ -1235,3 +1235,133 @@ fn relight_writes_every_frame_and_rejects_bad_lights() -> Result<()> {
     bad(&["--path", "broken.json"], "broken.json");
     Ok(())
 }
+
+/// `--texels` and `compare` of two texel files (issue 12 §1 (a)): a level-2 solve's
+/// texels against path-traced texels of the same grid. The grid covers every lit side
+/// (areas sum to the scene's area), a file compared with itself scores exactly zero,
+/// the solve lies within 25 % of the reference with the reference's noise floor
+/// stated, and files of different grids or kinds are refused.
+#[test]
+fn texels_compare_against_path_traced_texels() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    let sol = solve_json(
+        "builtin:cornell-box",
+        &[
+            "--no-image",
+            "--samples",
+            "0",
+            "--texels",
+            "100",
+            "--out",
+            "o",
+        ],
+        d,
+        "sol",
+    )?;
+    let texels = sol["outputs"]["texels"]
+        .as_str()
+        .context("outputs.texels")?;
+    std::fs::rename(d.join(texels), d.join("sol.texels.json"))?;
+    solve_json(
+        "builtin:cornell-box",
+        &[
+            "--no-image",
+            "--method",
+            "reference",
+            "--samples",
+            "1",
+            "--texels",
+            "100",
+            "--texel-paths",
+            "64",
+            "--out",
+            "o",
+        ],
+        d,
+        "ref",
+    )?;
+    std::fs::rename(d.join("o/cornell.texels.json"), d.join("ref.texels.json"))?;
+    let file: Value = serde_json::from_str(&std::fs::read_to_string(d.join("sol.texels.json"))?)?;
+    let area: f64 = file["texels"]
+        .as_array()
+        .context("texels")?
+        .iter()
+        .map(|t| t["area"].as_f64().unwrap_or(f64::NAN))
+        .sum();
+    let total = sol["scene"]["total_area"].as_f64().context("total_area")?;
+    assert!((area - total).abs() <= 1e-9 * total, "{area} vs {total}");
+    assert_eq!(file["unresolved"], 0);
+
+    ok(
+        &[
+            "compare",
+            "sol.texels.json",
+            "sol.texels.json",
+            "--json",
+            "self.json",
+        ],
+        d,
+    )?;
+    let same: Value = serde_json::from_str(&std::fs::read_to_string(d.join("self.json"))?)?;
+    assert_eq!(same["relative_l1"].as_f64(), Some(0.0));
+
+    let out = ok(
+        &[
+            "compare",
+            "sol.texels.json",
+            "ref.texels.json",
+            "--json",
+            "cmp.json",
+        ],
+        d,
+    )?;
+    assert!(out.contains("texels: relative L1"), "{out}");
+    let cmp: Value = serde_json::from_str(&std::fs::read_to_string(d.join("cmp.json"))?)?;
+    assert_eq!(cmp["kind"], "texels");
+    let l1 = cmp["relative_l1"].as_f64().context("relative_l1")?;
+    let floor = cmp["noise_floor"].as_f64().context("noise_floor")?;
+    assert!(floor > 0.0 && floor < 0.1, "noise floor {floor}");
+    assert!(l1 > 0.0 && l1 < 0.25, "relative L1 {l1}");
+    assert!(!cmp["sides"].as_array().context("sides")?.is_empty());
+
+    solve_json(
+        "builtin:cornell-box",
+        &[
+            "--no-image",
+            "--samples",
+            "0",
+            "--texels",
+            "50",
+            "--out",
+            "o",
+        ],
+        d,
+        "coarse",
+    )?;
+    fails(
+        &["compare", "o/cornell.texels.json", "ref.texels.json"],
+        d,
+        "different grids",
+    );
+    fails(
+        &["compare", "sol.texels.json", "ref.json"],
+        d,
+        "not a wavelux texel file",
+    );
+    fails(
+        &[
+            "solve",
+            "builtin:cornell-box",
+            "--texels",
+            "0",
+            "--no-image",
+            "--samples",
+            "0",
+            "-q",
+        ],
+        d,
+        "--texels",
+    );
+    Ok(())
+}

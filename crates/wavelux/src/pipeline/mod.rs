@@ -17,6 +17,7 @@ mod scenes;
 mod shoot;
 mod summary;
 mod target;
+mod texels;
 mod view;
 mod warnings;
 mod wavelet;
@@ -30,6 +31,7 @@ use wavelux::solver::Solution;
 
 pub use relight::run as relight;
 pub use scenes::{list_scenes, load_scene};
+pub use texels::{SCHEMA as TEXEL_SCHEMA, TexelFile, grid_of as texel_grid, read as read_texels};
 
 use crate::cli::{CameraArgs, MeshGroupingArg, MethodArg, SolveArgs, SolverArg};
 use crate::progress;
@@ -107,6 +109,7 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
     let t_start = Instant::now();
     let threads = thread_pool(a.threads)?;
     check_image_options(a)?;
+    texels::check(a)?;
     let (scene, stem) = load_scene(&a.scene, mesh_grouping(a))?;
     let t_load = t_start.elapsed();
     let method = plan(a)?;
@@ -143,7 +146,12 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
 
     let t_write = Instant::now();
     let json_path = output::json_path(a, &stem);
-    let outputs = output::write_files(a, &scene, &stem, &outcome, &json_path)?;
+    let mut outputs = output::write_files(a, &scene, &stem, &outcome, &json_path)?;
+    if let Some(density) = a.texels {
+        let p = texels::path(a, &stem);
+        texels::write(a, &scene, &outcome, &job.reference, density, &p)?;
+        outputs.texels = Some(p.display().to_string());
+    }
     stats.time_s.write = secs(t_write.elapsed());
     stats.time_s.total = secs(t_start.elapsed());
     stats.peak_memory_bytes = peak_memory();
