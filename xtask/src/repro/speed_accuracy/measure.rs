@@ -79,6 +79,10 @@ pub struct Refs {
     pub emission: Image,
     /// Noise floor per metric (expected error of an exact answer).
     pub floor: [f64; N],
+    /// Texel error of the reference's own per-side means against the reference: what
+    /// one constant per surface side scores at best with exact means (an unrefined
+    /// solution cannot do much better on a concentrated function).
+    pub side_constant: f64,
     /// Wall time of all references (s).
     pub seconds: f64,
 }
@@ -137,6 +141,9 @@ impl Refs {
             .compare_estimates(&means, &texel)?
             .noise_floor
             .unwrap_or(f64::NAN);
+        let side_constant = grid
+            .compare(&side_means(&grid, &means), &means, None)?
+            .relative_l1;
         let view = view_for(scene, sz.image_px)?;
         let h1 = pt.render(&view, sz.image_spp, &ro(12345), &|_| {})?;
         let h2 = pt.render(&view, sz.image_spp, &ro(54321), &|_| {})?;
@@ -163,6 +170,7 @@ impl Refs {
                 0.5 * half_err,
                 0.5 * half_err,
             ],
+            side_constant,
             seconds: t.elapsed().as_secs_f64(),
         })
     }
@@ -177,6 +185,26 @@ impl Refs {
             .compare_estimates(values, &self.texel)?
             .relative_l1)
     }
+}
+
+/// Every texel's value replaced by the area-weighted mean of its surface side.
+fn side_means(grid: &TexelGrid, values: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let mut sums: std::collections::HashMap<(usize, bool), (f64, [f64; 3])> =
+        std::collections::HashMap::new();
+    for (t, v) in grid.texels.iter().zip(values) {
+        let e = sums.entry((t.surface, t.back)).or_insert((0.0, [0.0; 3]));
+        e.0 += t.area;
+        for c in 0..3 {
+            e.1[c] += t.area * v[c];
+        }
+    }
+    grid.texels
+        .iter()
+        .map(|t| {
+            let (a, s) = sums[&(t.surface, t.back)];
+            std::array::from_fn(|c| s[c] / a)
+        })
+        .collect()
 }
 
 /// One measured run: per metric, the wall time and the error (NaN: not measured).
