@@ -59,6 +59,9 @@ pub enum MethodArg {
     /// Meshless hierarchical basis with precomputed direct-to-indirect transfer
     /// (Meshless §2-§3): one frame lit by the scene's lights and emitters.
     Meshless,
+    /// Glossy global illumination with 4D Haar radiance, Ward BRDFs and importance
+    /// (Glossy §3-§5).
+    Glossy,
 }
 
 /// Basis of the wavelet solver.
@@ -240,6 +243,57 @@ pub struct SolveArgs {
     /// Options of `--method meshless`.
     #[command(flatten)]
     pub meshless: MeshlessArgs,
+    /// Options of `--method glossy`.
+    #[command(flatten)]
+    pub glossy: GlossyArgs,
+}
+
+/// Options of the glossy method (`--method glossy`; `--solver`, `--max-level`,
+/// `--max-iterations`, `--tolerance`, `--gather` and `--seed` apply as well).
+#[derive(Args, Clone, Debug)]
+pub struct GlossyArgs {
+    /// Glossy: Ward normalisation.
+    #[arg(long, value_enum, default_value_t = crate::pipeline::glossy::WardVariantArg::Bounded)]
+    pub ward_variant: crate::pipeline::glossy::WardVariantArg,
+    /// Glossy: hemisphere-to-square map of the directions.
+    #[arg(long, value_enum, default_value_t = crate::pipeline::glossy::DirectionsArg::Glossy)]
+    pub directions: crate::pipeline::glossy::DirectionsArg,
+    /// Glossy: refinement rounds (0: the V⁰ solution only).
+    #[arg(long, default_value_t = 4)]
+    pub rounds: usize,
+    /// Glossy: a round adds every candidate link whose oracle value is at least this
+    /// fraction of the round's largest, in (0, 1] (Glossy §5.3: 0.1).
+    #[arg(long, default_value_t = 0.1)]
+    pub fraction: f64,
+    /// Glossy: what emits importance (`camera`: an eye patch at the image's camera).
+    #[arg(long, value_enum, default_value_t = crate::pipeline::glossy::ImportanceArg::Off)]
+    pub importance: crate::pipeline::glossy::ImportanceArg,
+    /// Glossy: these surfaces (comma-separated names) emit importance in every
+    /// direction instead of a camera.
+    #[arg(long, value_delimiter = ',')]
+    pub importance_surfaces: Option<Vec<String>>,
+    /// Glossy: stop refining when the camera's 24 × 24 watch image changes by less
+    /// than this relative L² amount between rounds (needs --importance camera).
+    #[arg(long)]
+    pub image_tolerance: Option<f64>,
+    /// Glossy: senders of the final gather (with --gather N: N rays per sending node).
+    #[arg(long, value_enum, default_value_t = crate::pipeline::glossy::GatherModeArg::Root)]
+    pub gather_mode: crate::pipeline::glossy::GatherModeArg,
+    /// Glossy: refinement stops adding links at this count (the run continues).
+    #[arg(long, default_value_t = 2_000_000)]
+    pub glossy_max_links: usize,
+    /// Glossy: refinement stops adding links past this memory (bytes).
+    #[arg(long, default_value_t = 4 << 30)]
+    pub max_bytes: usize,
+    /// Glossy: n × n jittered points per spatial child cell and side of a link.
+    #[arg(long, default_value_t = 2)]
+    pub spatial_samples: usize,
+    /// Glossy: direction samples per receiving direction child cell and point pair.
+    #[arg(long, default_value_t = 2)]
+    pub angular_samples: usize,
+    /// Glossy: Ward-lobe samples per point pair (glossy receivers).
+    #[arg(long, default_value_t = 4)]
+    pub lobe_samples: usize,
 }
 
 /// Options of the meshless method (`--method meshless`).

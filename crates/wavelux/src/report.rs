@@ -105,6 +105,9 @@ pub struct MethodInfo {
     /// `--method meshless`: its whole configuration (null otherwise).
     #[serde(default)]
     pub meshless: Option<wavelux::meshless::MeshlessConfig>,
+    /// `--method glossy`: its knobs (null otherwise).
+    #[serde(default)]
+    pub glossy: Option<serde_json::Value>,
     /// Monte Carlo samples per surface (reference or error check).
     pub samples: u64,
     /// Worker threads.
@@ -221,6 +224,10 @@ pub struct Statistics {
     /// `--method meshless`: precomputation and frame statistics (null otherwise).
     #[serde(default)]
     pub meshless: Option<MeshlessStats>,
+    /// `--method glossy`: the solver's counts, bytes, phase times and rounds
+    /// (`wavelux_glossy::GlossyStats`; null otherwise).
+    #[serde(default)]
+    pub glossy: Option<serde_json::Value>,
 }
 
 /// The target-error loop of a run (`--target-error`).

@@ -2,7 +2,7 @@
 //! (`--samples` per surface), as a relative L1, the check's noise floor and the largest
 //! z-score.
 
-use wavelux::render::{PathTracer, ReferenceOptions};
+use wavelux::render::{PathTracer, ReferenceOptions, SurfaceEstimate};
 use wavelux::scene::Scene;
 
 use crate::report;
@@ -18,10 +18,22 @@ pub fn estimate_error(
 ) -> Result<report::ErrorEstimate, String> {
     let pt = PathTracer::new(scene)
         .map_err(|e| format!("the path tracer cannot trace the scene: {e}"))?;
+    compare(surfaces, samples, |i| {
+        pt.surface_average(i, samples, opts)
+            .map_err(|e| e.to_string())
+    })
+}
+
+/// The error estimate of `surfaces` against per-surface Monte Carlo estimates
+/// (`estimate(i)`, `samples` each; `Err` names why surface `i` cannot be sampled).
+pub fn compare(
+    surfaces: &[report::SurfaceResult],
+    samples: u64,
+    mut estimate: impl FnMut(usize) -> Result<SurfaceEstimate, String>,
+) -> Result<report::ErrorEstimate, String> {
     let (mut num, mut den, mut noise, mut max_z) = (0.0, 0.0, 0.0, 0.0f64);
     for (i, s) in surfaces.iter().enumerate() {
-        let est = pt
-            .surface_average(i, samples, opts)
+        let est = estimate(i)
             .map_err(|e| format!("the path tracer cannot sample surface {:?}: {e}", s.name))?;
         for c in 0..3 {
             let d = (s.radiosity[c] - est.mean[c]).abs();

@@ -3,12 +3,14 @@
 //!
 //! Each global-illumination method is one module implementing [`Method`]: `gather`
 //! (wavelet radiosity with links), `shoot` (linkless shooting), `reference` (the
-//! path tracer) and `meshless` (precomputed meshless transfer, one frame); `wavelet` holds what gathering and shooting share (statistics, surface
+//! path tracer), `meshless` (precomputed meshless transfer, one frame) and `glossy`
+//! (4D Haar radiance with Ward BRDFs and importance); `wavelet` holds what gathering and shooting share (statistics, surface
 //! averages, the error check and the image of a wavelet [`Solution`]). Adding a method
 //! is a new module, a `MethodArg` variant and one arm in [`plan`].
 
 mod error_check;
 mod gather;
+pub mod glossy;
 mod meshless;
 mod output;
 mod reference;
@@ -101,6 +103,7 @@ pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
         MethodArg::Gather if a.solver == Some(SolverArg::Southwell) => shoot::plan(a),
         MethodArg::Gather => gather::plan(a),
         MethodArg::Meshless => meshless::plan(a),
+        MethodArg::Glossy => glossy::plan(a),
     }
 }
 
@@ -231,6 +234,7 @@ fn base_info(a: &SolveArgs, threads: usize) -> report::MethodInfo {
         convergence: None,
         max_shots: None,
         meshless: None,
+        glossy: None,
         samples: a.samples,
         threads,
         seed: a.seed,

@@ -52,7 +52,7 @@ pub const PUNCTUAL: Feature = Feature {
 pub const TEXTURE: Feature = Feature {
     what: "a reflectance or emission texture",
     instead: "the texture's mean value is used over the whole surface",
-    modelled_by: &[],
+    modelled_by: &["glossy"],
 };
 
 impl Feature {
