@@ -143,6 +143,7 @@ pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) ->
             r: *k,
             e: *k,
             block,
+            seen: crate::transfer::LinkVisibility::Unknown,
         });
     }
     out

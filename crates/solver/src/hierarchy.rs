@@ -21,7 +21,7 @@ use std::collections::{HashMap, HashSet};
 
 use rayon::prelude::*;
 
-use crate::transfer::{Region, TransferCtx};
+use crate::transfer::{LinkVisibility, Region, TransferCtx};
 
 /// A quadtree node of a patch.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -133,6 +133,8 @@ pub struct LinkRec {
     pub e: NodeKey,
     /// Block `[a_receiver * n + b_emitter]`.
     pub block: Vec<f64>,
+    /// What the block's shadow rays saw ([`TransferCtx::block_seen`]).
+    pub seen: LinkVisibility,
 }
 
 /// Counters of a refinement.
@@ -246,11 +248,8 @@ pub fn refine_link(
     if r.level == 0 && e.level == 0 {
         counts.unrefined_roots += 1;
     }
-    out.push(LinkRec {
-        r,
-        e,
-        block: ctx.block(&rr, &er),
-    });
+    let (block, seen) = ctx.block_seen(&rr, &er);
+    out.push(LinkRec { r, e, block, seen });
     counts
 }
 
@@ -398,10 +397,14 @@ pub fn split_marked(
                 .par_iter()
                 .filter_map(|(a, b)| {
                     let (ar, br) = (a.region(), b.region());
-                    ctx.facing(&ar, &br).then(|| LinkRec {
-                        r: *a,
-                        e: *b,
-                        block: ctx.block(&ar, &br),
+                    ctx.facing(&ar, &br).then(|| {
+                        let (block, seen) = ctx.block_seen(&ar, &br);
+                        LinkRec {
+                            r: *a,
+                            e: *b,
+                            block,
+                            seen,
+                        }
                     })
                 })
                 .collect();
@@ -473,6 +476,8 @@ pub struct Hierarchy {
     pub link_receiver: Vec<u32>,
     /// Blocks, `n²` per link (receiver order).
     pub blocks: Vec<f64>,
+    /// What each block's shadow rays saw (receiver order).
+    pub link_seen: Vec<LinkVisibility>,
     /// Links in emitter order (indices into the receiver-ordered arrays).
     pub by_emitter: Vec<u32>,
     /// CSR offsets of `by_emitter` by emitter node.
@@ -554,7 +559,9 @@ impl Hierarchy {
         let mut link_emitter = Vec::with_capacity(links.len());
         let mut link_receiver = Vec::with_capacity(links.len());
         let mut blocks = Vec::with_capacity(links.len() * n * n);
+        let mut link_seen = Vec::with_capacity(links.len());
         for &i in &order {
+            link_seen.push(links[i].seen);
             let r = index[&links[i].r];
             recv_offsets[r as usize + 1] += 1;
             link_receiver.push(r);
@@ -586,6 +593,7 @@ impl Hierarchy {
             link_emitter,
             link_receiver,
             blocks,
+            link_seen,
             by_emitter,
             emit_offsets,
         }
@@ -600,6 +608,7 @@ impl Hierarchy {
                 r: self.keys[self.link_receiver[l] as usize],
                 e: self.keys[self.link_emitter[l] as usize],
                 block: self.blocks[l * nn..][..nn].to_vec(),
+                seen: self.link_seen[l],
             })
             .collect()
     }
@@ -652,5 +661,6 @@ impl Hierarchy {
                 + self.by_emitter.capacity())
                 * 4
             + self.blocks.capacity() * 8
+            + self.link_seen.capacity() * size_of::<LinkVisibility>()
     }
 }

@@ -73,7 +73,7 @@ use wavelux_scene::Scene;
 
 pub use basis::{BasisKind, TreeBasis};
 pub use error::SolverError;
-pub use estimate::{ErrorEstimate, EstimateOptions, estimate};
+pub use estimate::{ErrorEstimate, EstimateCache, EstimateOptions, estimate, estimate_cached};
 pub use hierarchy::{Hierarchy, LinkRec, NodeKey, Oracle, RefineParams, SplitPolicy};
 pub use mask::{Coverage, Mask};
 pub use solution::{Energy, Solution, Statistics};
@@ -81,7 +81,7 @@ pub use standard::{Decomposition, StandardSystem};
 pub use support::{Patch, PatchSet, Side, Support, SupportMap, build_patches, build_patches_with};
 pub use system::System;
 pub use target::{Choice, Round, TargetConfig, TargetOutcome, solve_to_target};
-pub use transfer::{TransferCtx, TransferOptions, Visibility};
+pub use transfer::{LinkVisibility, TransferCtx, TransferOptions, Visibility};
 pub use wavelux_param::ParamKind;
 
 /// The linear solver of the discrete system.

@@ -29,7 +29,7 @@ use std::time::{Duration, Instant};
 
 use crate::basis::BasisKind;
 use crate::error::SolverError;
-use crate::estimate::{ErrorEstimate, EstimateOptions, estimate};
+use crate::estimate::{ErrorEstimate, EstimateCache, EstimateOptions, estimate_cached};
 use crate::hierarchy::{self, LinkRec, NodeKey, Oracle};
 use crate::solution::{Solution, Statistics};
 use crate::{Prepared, SolverConfig, brightness, solve_links};
@@ -152,6 +152,8 @@ pub struct Round {
     pub time_estimate: Duration,
     /// Shadow rays of the estimate.
     pub estimate_rays: u64,
+    /// Links whose fine transport the estimate reused from the previous round.
+    pub estimate_reused_links: u64,
 }
 
 /// The result of [`solve_to_target`].
@@ -267,11 +269,12 @@ pub fn solve_to_target(scene: &Scene, cfg: &TargetConfig) -> Result<TargetOutcom
     let mut refined = counts.refined;
     let mut split_time = t_ref.elapsed();
     let mut prev: Option<Solution> = None;
+    let mut cache = EstimateCache::new();
     for round in 0..cfg.max_rounds {
         let (t_ref0, t_sol0) = (stats.time_refine, stats.time_solve);
         stats.stages = round + 1;
         let sol = solve_links(&prep, &ctx, &links, prev.as_ref(), &mut stats, tolerance)?;
-        let est = estimate(&ctx, &sol, &cfg.estimate)?;
+        let est = estimate_cached(&ctx, &sol, &cfg.estimate, &mut cache)?;
         let den: f64 = est.reflected_l1.iter().sum();
         rounds.push(Round {
             round,
@@ -288,6 +291,7 @@ pub fn solve_to_target(scene: &Scene, cfg: &TargetConfig) -> Result<TargetOutcom
             time_solve: stats.time_solve - t_sol0,
             time_estimate: est.time,
             estimate_rays: est.rays,
+            estimate_reused_links: est.reused_links,
         });
         if est.relative_l1 <= cfg.target {
             let stop_reason = format!("estimate {:.4} <= target {}", est.relative_l1, cfg.target);

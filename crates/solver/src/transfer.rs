@@ -78,6 +78,28 @@ pub enum Visibility {
     Off,
 }
 
+/// What the shadow rays of a link's transfer block saw ([`TransferCtx::block_seen`]).
+///
+/// A sampled classification, not a proof: an occluder smaller than the spacing of the
+/// block's sample pairs can hide from every ray. Consumers use it where the block
+/// itself already trusts those rays (the error estimate skips the shadow rays of a
+/// `Visible` link and the transport of a `Blocked` one).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[non_exhaustive]
+pub enum LinkVisibility {
+    /// Every shadow ray of the block (between sample pairs with a non-zero kernel)
+    /// was unblocked.
+    Visible,
+    /// Every such ray was blocked (the block is zero).
+    Blocked,
+    /// Some rays were blocked and some not: a shadow boundary crosses the pair.
+    Partial,
+    /// No rays were shot (visibility off or fractional, no facing samples, or a
+    /// link not made by [`TransferCtx::block_seen`]).
+    #[default]
+    Unknown,
+}
+
 /// `G(x, y) = max(0, cosθ_x) max(0, cosθ_y) / (π r²)`.
 #[inline]
 pub fn kernel(x: DVec3, nx: DVec3, y: DVec3, ny: DVec3) -> f64 {
@@ -346,6 +368,14 @@ impl<'a> TransferCtx<'a> {
     /// the exact unoccluded value. Every form-factor row therefore sums to at most one
     /// and to exactly one in a closed enclosure, whatever the quadrature's error.
     pub fn block(&self, r: &Region, e: &Region) -> Vec<f64> {
+        self.block_seen(r, e).0
+    }
+
+    /// [`Self::block`] and what its shadow rays saw ([`LinkVisibility`]): every
+    /// sample pair with a non-zero kernel visible, every one blocked, or some of
+    /// each (`Unknown` when the block shot no rays: visibility off or fractional, or
+    /// no sample pair faces the other).
+    pub fn block_seen(&self, r: &Region, e: &Region) -> (Vec<f64>, LinkVisibility) {
         let n = self.basis.n();
         let nn = n * n;
         let mut acc = vec![0.0; 2 * nn];
@@ -363,6 +393,18 @@ impl<'a> TransferCtx<'a> {
         }
         let unocc = acc.split_off(nn);
         let mut out = acc;
+        // The visible and unoccluded sums add the same terms in the same order when
+        // every ray is visible, and the visible one has no terms when every ray is
+        // blocked (ψ₀ = 1 and the kernel weights are positive).
+        let seen = if !with_vis || unocc[0] <= 0.0 {
+            LinkVisibility::Unknown
+        } else if out[0] == unocc[0] {
+            LinkVisibility::Visible
+        } else if out[0] == 0.0 {
+            LinkVisibility::Blocked
+        } else {
+            LinkVisibility::Partial
+        };
         let mut frac = None;
         if self.visibility == Visibility::Fractional {
             let f = self.fractional_visibility(r, e, &mut rays);
@@ -386,7 +428,7 @@ impl<'a> TransferCtx<'a> {
         }
         self.kernel_evals.fetch_add(evals, Ordering::Relaxed);
         self.rays.fetch_add(rays, Ordering::Relaxed);
-        out
+        (out, seen)
     }
 
     /// The exactly known unoccluded parts of the block of two planar nodes (see

@@ -9,8 +9,8 @@ use std::sync::{Mutex, OnceLock};
 use wavelux_scene::Scene;
 use wavelux_scene::builtin::builtin;
 use wavelux_solver::{
-    BasisKind, EstimateOptions, LinearMethod, Prepared, Solution, SolverConfig, SolverError,
-    TargetConfig, estimate, solve_prepared, solve_to_target,
+    BasisKind, EstimateCache, EstimateOptions, LinearMethod, Prepared, Solution, SolverConfig,
+    SolverError, TargetConfig, estimate, estimate_cached, solve_prepared, solve_to_target,
 };
 
 /// `Σ_c ∫|B_c − B_ref,c| / Σ_c ∫|B_ref,c − E_c|` over an `m × m` grid of cell centres
@@ -170,6 +170,54 @@ fn estimate_is_independent_of_the_thread_count() {
     assert_eq!(a.leaf_error, b.leaf_error);
     assert_eq!(a.link_error, b.link_error);
     assert_eq!(a.rays, b.rays);
+}
+
+/// The cache of link transport between calls changes nothing but the cost: a second
+/// call on the same solution reuses every link and shoots no ray, and a refined
+/// solution of the same scene estimated with the coarse one's cache gets exactly
+/// (bitwise) the estimate of an empty cache, reusing the links the two share.
+#[test]
+fn cached_estimate_equals_a_fresh_one() {
+    let scene = builtin("ziegler-occluded").unwrap();
+    let opts = EstimateOptions::default();
+    let solved = |level: u8, eps: f64| {
+        let prep = Prepared::new(&scene, &config(BasisKind::Multiwavelet(2), level, eps)).unwrap();
+        let sol = solve_prepared(&prep).unwrap();
+        (prep, sol)
+    };
+    let same = |a: &wavelux_solver::ErrorEstimate, b: &wavelux_solver::ErrorEstimate| {
+        assert_eq!(a.relative_l1.to_bits(), b.relative_l1.to_bits());
+        assert_eq!(a.error_l1, b.error_l1);
+        assert_eq!(a.leaf_error, b.leaf_error);
+        assert_eq!(a.link_error, b.link_error);
+    };
+    let mut cache = EstimateCache::new();
+    let (prep, sol) = solved(1, 1e-2);
+    let ctx = prep.transfer().unwrap();
+    let fresh = estimate(&ctx, &sol, &opts).unwrap();
+    let first = estimate_cached(&ctx, &sol, &opts, &mut cache).unwrap();
+    let again = estimate_cached(&ctx, &sol, &opts, &mut cache).unwrap();
+    same(&fresh, &first);
+    same(&fresh, &again);
+    assert!(fresh.rays > 0);
+    assert_eq!(first.reused_links, 0);
+    assert_eq!(again.reused_links as usize, sol.system.h.link_count());
+    assert_eq!(again.rays, 0);
+    assert_eq!(again.kernel_evals, 0);
+    let (prep2, fine) = solved(2, 1e-3);
+    let ctx2 = prep2.transfer().unwrap();
+    let fresh = estimate(&ctx2, &fine, &opts).unwrap();
+    let reused = estimate_cached(&ctx2, &fine, &opts, &mut cache).unwrap();
+    same(&fresh, &reused);
+    assert!(reused.reused_links > 0, "the two hierarchies share links");
+    assert!(reused.rays < fresh.rays);
+    // Other options empty the cache.
+    let coarse = EstimateOptions {
+        emitter_points: 2,
+        ..opts
+    };
+    let other = estimate_cached(&ctx2, &fine, &coarse, &mut cache).unwrap();
+    assert_eq!(other.reused_links, 0);
 }
 
 /// Bad options and configurations are typed errors naming the field.

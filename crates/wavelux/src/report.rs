@@ -277,6 +277,9 @@ pub struct TargetRound {
     pub time_estimate_s: f64,
     /// Shadow rays of the estimate.
     pub estimate_rays: u64,
+    /// Links whose fine transport the estimate reused from the previous round (no
+    /// kernel samples or rays spent on them again).
+    pub estimate_reused_links: u64,
 }
 
 /// Statistics of `--method meshless`.

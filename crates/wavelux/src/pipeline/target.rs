@@ -87,6 +87,7 @@ fn report_of(cfg: &TargetConfig, out: &TargetOutcome) -> report::TargetReport {
                 time_solve_s: secs(r.time_solve),
                 time_estimate_s: secs(r.time_estimate),
                 estimate_rays: r.estimate_rays,
+                estimate_reused_links: r.estimate_reused_links,
             })
             .collect(),
     }
