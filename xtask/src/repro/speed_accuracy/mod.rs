@@ -7,7 +7,7 @@
 //!   reflected radiosity `B − E` (so exact emitters do not dilute it);
 //! - **texels** (§1 (a)): the same over a lightmap-like texel grid covering every real
 //!   surface point at a fixed density per m² (`wavelux::render::TexelGrid`);
-//! - **image** (§1 (b)): relative L1 of a 128² image at the scene camera showing the
+//! - **image** (§1 (b)): relative L1 of an image (64² in full runs, 48² quick) at the scene camera showing the
 //!   solution itself (no final gather), over the pixels that see no light source;
 //! - **image + final gather**: the same with a final gather (8 rays per pixel sample,
 //!   the command's former default);
@@ -174,12 +174,14 @@ fn scene(name: &str) -> anyhow::Result<Scene> {
 }
 
 /// The scenes and their sizes. Full runs are sized to finish in about 25 minutes on
-/// the shared 2-core machine under other agents' load (texel sides 6.3 cm on the 0.55 m
-/// Cornell box, 18 cm on the teapot's 4 m plate, 25 cm in the 5 m office; every
-/// primitive gets at least one): one gathering level (2) on the planar scenes, the
-/// brightness oracle's levels 2–3 on the teapot, one M3 run on the office.
+/// the shared 2-core machine under other agents' load (load average 12–16; texel sides
+/// 8.8 cm on the 0.55 m Cornell box, 25 cm on the teapot's 4 m plate, 35 cm in the 5 m
+/// office; every primitive gets at least one): one gathering level (2) at two ε on the
+/// planar scenes, the brightness oracle's levels 2–3 on the teapot, one M3 run on the
+/// office, references and path-tracer ladders cut to match.
 fn cases(quick: bool) -> anyhow::Result<Vec<Case>> {
-    let px = if quick { 48 } else { 128 };
+    // Full: 64² so the default command's 512² image box-filters onto it exactly (×8).
+    let px = if quick { 48 } else { 64 };
     let pt_levels = |n: usize| -> Vec<(u64, u64, usize)> {
         [
             (256, 4, 1),
@@ -214,7 +216,7 @@ fn cases(quick: bool) -> anyhow::Result<Vec<Case>> {
             gather_oracle: Oracle::KernelSmoothness,
             gather_bases: ALL_BASES,
             gather_levels: &[2],
-            gather_eps: &[0.1, 0.03, 0.01],
+            gather_eps: &[0.1, 0.01],
             shoot_levels: &[2],
             shoot_eps: &[0.1],
         }
@@ -234,10 +236,10 @@ fn cases(quick: bool) -> anyhow::Result<Vec<Case>> {
             refs: if quick {
                 refs(128.0, 4096, 100_000, 6)
             } else {
-                refs(256.0, 16_384, 1_000_000, 16)
+                refs(128.0, 8192, 200_000, 24)
             },
-            pt: pt_levels(if quick { 3 } else { 6 }),
-            mitsuba: mi(if quick { 2 } else { 4 }),
+            pt: pt_levels(if quick { 3 } else { 5 }),
+            mitsuba: mi(if quick { 2 } else { 3 }),
         },
         Case {
             name: "ziegler-occluded",
@@ -246,10 +248,10 @@ fn cases(quick: bool) -> anyhow::Result<Vec<Case>> {
             refs: if quick {
                 refs(128.0, 4096, 100_000, 6)
             } else {
-                refs(256.0, 16_384, 1_000_000, 16)
+                refs(128.0, 8192, 200_000, 24)
             },
-            pt: pt_levels(if quick { 3 } else { 6 }),
-            mitsuba: mi(if quick { 2 } else { 4 }),
+            pt: pt_levels(if quick { 3 } else { 5 }),
+            mitsuba: mi(if quick { 2 } else { 3 }),
         },
         Case {
             name: "quadric-teapot",
@@ -262,17 +264,17 @@ fn cases(quick: bool) -> anyhow::Result<Vec<Case>> {
                 gather_oracle: Oracle::Brightness,
                 gather_bases: &[BasisKind::Haar],
                 gather_levels: if quick { &[2] } else { &[2, 3] },
-                gather_eps: if quick { &[0.03] } else { &[0.03, 0.01] },
+                gather_eps: &[0.03],
                 shoot_levels: &[],
                 shoot_eps: &[],
             },
             refs: if quick {
                 refs(8.0, 1024, 20_000, 3)
             } else {
-                refs(32.0, 4096, 300_000, 12)
+                refs(16.0, 2048, 100_000, 12)
             },
-            pt: pt_levels(if quick { 2 } else { 5 }),
-            mitsuba: mi(if quick { 1 } else { 3 }),
+            pt: pt_levels(if quick { 2 } else { 4 }),
+            mitsuba: mi(if quick { 1 } else { 2 }),
         },
     ];
     if !quick {
@@ -287,9 +289,9 @@ fn cases(quick: bool) -> anyhow::Result<Vec<Case>> {
                 shoot_levels: &[],
                 shoot_eps: &[],
             },
-            refs: refs(16.0, 4096, 20_000, 12),
-            pt: pt_levels(4),
-            mitsuba: mi(3),
+            refs: refs(8.0, 2048, 10_000, 12),
+            pt: pt_levels(3),
+            mitsuba: mi(2),
         });
     }
     Ok(out)
@@ -645,7 +647,7 @@ kind): surface averages from uniformly distributed points; texel values from ind
 walks at every texel of a lightmap-like grid (`TexelGrid`: centres of equal-area cells of \
 each primitive's parametrization at a fixed density per m², real points only, each \
 texel weighted by the area it stands for, the front side of every surface and the back \
-side of two-sided ones); a 128² image at the scene camera as the mean of two independent \
+side of two-sided ones); an image at the scene camera (64² in full runs) as the mean of two independent \
 halves. Errors are relative L1 of the reflected radiosity `B − E` (light sources are exact \
 for every method): area-weighted over surfaces or texels, over pixels and channels for \
 images, leaving out pixels within one pixel of a light source. Noise floors are the \

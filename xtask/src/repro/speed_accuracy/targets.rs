@@ -9,7 +9,7 @@
 //!    without visible noise (pixel-to-pixel relative deviation in flat regions below
 //!    0.5 %, `Image::flat_noise` over `PathTracer::flat_pixels`) within 2 % L1 of the
 //!    converged path-traced image (the 512² image box-filtered to the reference's
-//!    128²).
+//!    size, 64² in full runs).
 //! 4. The quadric teapot: 1 % texel error reached.
 //!
 //! In quick mode (CI sizes: coarse references, small sweeps, no release build) the
