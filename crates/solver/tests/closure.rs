@@ -170,7 +170,19 @@ fn leaf_row_sums_are_one_in_a_closed_box_and_bounded_in_the_cornell_box() {
     // With occluders a link's visible fraction is the average over its two nodes, so a
     // partly shadowed leaf below a coarse link can receive a little more than it sees
     // (the rest of its row is exact): the excess is the visibility error of its
-    // ancestors' links, bounded by the refinement, not a quadrature error.
+    // ancestors' links, bounded by the refinement, not a quadrature error. Measured at
+    // level 3, ε = 1e-2: Haar 1.019 on back-wall leaves in the corner behind the tall
+    // block, M3 1.024. Splitting links whose quadrature samples disagree on visibility
+    // (a shadow indicator in the oracle's units) lowered these only to 1.018 / 1.019
+    // for 1 % / 34 % more links and was not kept.
+    //
+    // M3's smallest row sum (−0.016) is on floor cells under the short block, which
+    // see nothing (the block's bottom face covers them): a coarse link's receiver
+    // moments carry the shape of its shadow within the node (the visibility-weighted
+    // quadrature minus `α` times the unoccluded one), the quadratic L² projection of a
+    // visibility step, which undershoots below zero next to the step (Gibbs); Haar's
+    // projection is the non-negative cell average. Bounded by refinement like the
+    // excess.
     let cornell = cornell_box();
     for basis in [BasisKind::Haar, BasisKind::Multiwavelet(3)] {
         let sol = solve(&cornell, &config(basis, 3, GMRES)).unwrap();
@@ -180,6 +192,8 @@ fn leaf_row_sums_are_one_in_a_closed_box_and_bounded_in_the_cornell_box() {
         // Haar blocks are non-negative (M3's higher moments may dip below zero).
         if basis == BasisKind::Haar {
             assert!(lo > 0.0, "Haar: {lo} .. {hi}");
+        } else {
+            assert!(lo > -0.03, "{}: {lo} .. {hi}", basis.name());
         }
     }
 }
