@@ -133,36 +133,9 @@ pub(crate) fn side_mat(scene: &Scene, id: usize, name: &str) -> Result<SideMat, 
             m.name
         )));
     }
-    let mut rho = m.reflectance.0;
-    let mut e = m.emission.0;
-    if let Some(t) = m
-        .reflectance_texture
-        .and_then(|t| scene.textures.get(t.texture))
-    {
-        let t = t.mean().0;
-        rho = std::array::from_fn(|c| rho[c] * t[c]);
-    }
-    if let Some(t) = m
-        .emission_texture
-        .and_then(|t| scene.textures.get(t.texture))
-    {
-        let t = t.mean().0;
-        e = std::array::from_fn(|c| e[c] * t[c]);
-    }
-    for c in 0..3 {
-        if !(rho[c].is_finite() && (0.0..1.0).contains(&rho[c])) {
-            return Err(RenderError::Scene(format!(
-                "material {:?}: reflectance {} outside [0, 1)",
-                m.name, rho[c]
-            )));
-        }
-        if !(e[c].is_finite() && e[c] >= 0.0) {
-            return Err(RenderError::Scene(format!(
-                "material {:?}: emission {} not finite and >= 0",
-                m.name, e[c]
-            )));
-        }
-    }
+    let (rho, e) = m
+        .checked_diffuse_means(&scene.textures)
+        .map_err(|why| RenderError::Scene(format!("material {:?}: {why}", m.name)))?;
     Ok(SideMat { rho, e })
 }
 

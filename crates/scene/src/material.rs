@@ -196,6 +196,42 @@ impl Material {
         !self.emission.is_black()
     }
 
+    /// The diffuse reflectance and emitted exitance (W/m²) the diffuse methods and the
+    /// diffuse reference use: each texture replaced by its mean over the image, one
+    /// constant over the whole surface. A texture index outside `textures` is ignored
+    /// (loaders validate the indices).
+    pub fn diffuse_means(&self, textures: &[Texture]) -> (Rgb, Rgb) {
+        let mean =
+            |t: Option<TextureRef>| t.and_then(|t| textures.get(t.texture)).map(Texture::mean);
+        let rho =
+            mean(self.reflectance_texture).map_or(self.reflectance, |t| self.reflectance.times(t));
+        let e = mean(self.emission_texture).map_or(self.emission, |t| self.emission.times(t));
+        (rho, e)
+    }
+
+    /// [`Material::diffuse_means`], checked: every reflectance channel finite and in
+    /// `[0, 1)`, every emission channel finite and `>= 0`.
+    ///
+    /// # Errors
+    /// A message naming the first bad value (`reflectance 1.2 outside [0, 1)`,
+    /// `emission NaN not finite and >= 0`); callers prefix the material or surface.
+    pub fn checked_diffuse_means(
+        &self,
+        textures: &[Texture],
+    ) -> Result<([f64; 3], [f64; 3]), String> {
+        let (rho, e) = self.diffuse_means(textures);
+        let (rho, e) = (rho.0, e.0);
+        for c in 0..3 {
+            if !(rho[c].is_finite() && (0.0..1.0).contains(&rho[c])) {
+                return Err(format!("reflectance {} outside [0, 1)", rho[c]));
+            }
+            if !(e[c].is_finite() && e[c] >= 0.0) {
+                return Err(format!("emission {} not finite and >= 0", e[c]));
+            }
+        }
+        Ok((rho, e))
+    }
+
     /// Checks the physical ranges: every reflectance channel (plus the Ward specular
     /// channel, when present) in `[0, 1)`, emission finite and `>= 0`, Ward roughnesses
     /// finite and `> 0`, cosine-power exponent finite and `>= 0`.
@@ -269,4 +305,64 @@ pub enum ReflectancePolicy {
         /// Largest allowed reflectance after clamping.
         max: f64,
     },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn texture(texels: Vec<Rgb>) -> Texture {
+        Texture {
+            name: "t".into(),
+            width: texels.len(),
+            height: 1,
+            texels,
+        }
+    }
+
+    #[test]
+    fn diffuse_means_apply_texture_means_and_check_ranges() {
+        let textures = vec![
+            texture(vec![Rgb::new(0.2, 0.4, 1.0), Rgb::new(0.6, 0.8, 0.0)]),
+            texture(vec![Rgb::grey(3.0)]),
+        ];
+        let mut m = Material::lambertian("m", Rgb::new(0.5, 0.5, 0.9), Rgb::grey(2.0));
+        assert_eq!(
+            m.diffuse_means(&textures),
+            (Rgb::new(0.5, 0.5, 0.9), Rgb::grey(2.0))
+        );
+        m.reflectance_texture = Some(TextureRef {
+            texture: 0,
+            uv_set: 0,
+        });
+        m.emission_texture = Some(TextureRef {
+            texture: 1,
+            uv_set: 0,
+        });
+        let (rho, e) = m.diffuse_means(&textures);
+        // Texture means (0.4, 0.6, 0.5) and 3.
+        for (got, want) in rho.0.iter().zip([0.2, 0.3, 0.45]) {
+            assert!((got - want).abs() < 1e-15, "{got} vs {want}");
+        }
+        assert_eq!(e, Rgb::grey(6.0));
+        assert_eq!(m.checked_diffuse_means(&textures), Ok((rho.0, e.0)));
+        // An index outside the textures is ignored.
+        m.emission_texture = Some(TextureRef {
+            texture: 7,
+            uv_set: 0,
+        });
+        assert_eq!(m.diffuse_means(&textures).1, Rgb::grey(2.0));
+        // Ranges, after the texture is applied.
+        let bright = vec![texture(vec![Rgb::grey(2.5)])];
+        m.emission_texture = None;
+        m.reflectance_texture = Some(TextureRef {
+            texture: 0,
+            uv_set: 0,
+        });
+        let err = m.checked_diffuse_means(&bright).unwrap_err();
+        assert!(err.starts_with("reflectance 1.25"), "{err}");
+        let nan = Material::lambertian("n", Rgb::grey(0.5), Rgb::new(1.0, f64::NAN, 0.0));
+        let err = nan.checked_diffuse_means(&[]).unwrap_err();
+        assert!(err.starts_with("emission NaN"), "{err}");
+    }
 }

@@ -59,37 +59,8 @@ fn material_values(
     let m = scene.materials.get(id).ok_or_else(|| {
         SolverError::InvalidScene(format!("{what}: material id {id} out of range"))
     })?;
-    let mut rho = m.reflectance.0;
-    let mut e = m.emission.0;
-    if let Some(tex) = m
-        .reflectance_texture
-        .and_then(|t| scene.textures.get(t.texture))
-    {
-        let t = tex.mean().0;
-        rho = std::array::from_fn(|c| rho[c] * t[c]);
-    }
-    if let Some(tex) = m
-        .emission_texture
-        .and_then(|t| scene.textures.get(t.texture))
-    {
-        let t = tex.mean().0;
-        e = std::array::from_fn(|c| e[c] * t[c]);
-    }
-    for c in 0..3 {
-        if !(rho[c].is_finite() && (0.0..1.0).contains(&rho[c])) {
-            return Err(SolverError::InvalidScene(format!(
-                "{what}: reflectance {} outside [0, 1)",
-                rho[c]
-            )));
-        }
-        if !(e[c].is_finite() && e[c] >= 0.0) {
-            return Err(SolverError::InvalidScene(format!(
-                "{what}: emission {} not finite and >= 0",
-                e[c]
-            )));
-        }
-    }
-    Ok((rho, e))
+    m.checked_diffuse_means(&scene.textures)
+        .map_err(|why| SolverError::InvalidScene(format!("{what}: {why}")))
 }
 
 /// Builds the patches of a scene with equal-area supports

@@ -262,23 +262,8 @@ fn surface_result(
 /// Front-side reflectance and emission of a surface (texture means applied).
 fn front_material(scene: &Scene, i: usize) -> ([f64; 3], [f64; 3]) {
     let m = &scene.materials[scene.surfaces[i].material];
-    let mut rho = m.reflectance.0;
-    let mut e = m.emission.0;
-    if let Some(t) = m
-        .reflectance_texture
-        .and_then(|t| scene.textures.get(t.texture))
-    {
-        let t = t.mean().0;
-        rho = std::array::from_fn(|c| rho[c] * t[c]);
-    }
-    if let Some(t) = m
-        .emission_texture
-        .and_then(|t| scene.textures.get(t.texture))
-    {
-        let t = t.mean().0;
-        e = std::array::from_fn(|c| e[c] * t[c]);
-    }
-    (rho, e)
+    let (rho, e) = m.diffuse_means(&scene.textures);
+    (rho.0, e.0)
 }
 
 /// A value's `Debug` name in kebab-case (`GaussSeidel` → `gauss-seidel`).
