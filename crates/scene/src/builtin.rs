@@ -617,9 +617,12 @@ pub const BUILTIN_NAMES: &[&str] = &[
     "atrium-xl",
     "leak-rooms",
     "closed-sphere",
+    "gc-lounge",
+    "gc-entrance",
 ];
 
-/// A built-in scene by name (see [`BUILTIN_NAMES`]); `white-furnace` uses `E = 1`,
+/// A built-in scene by name (see [`BUILTIN_NAMES`]; the `gc-` media also as
+/// `gc-lounge-<n>`, see [`crate::volume_scenes`]); `white-furnace` uses `E = 1`,
 /// `ρ = 0.5`. The VirtualMesh §6 scenes also take parameters and a suffix (see
 /// [`crate::virtual_mesh::by_name`]): `architecture-<bays>x<storeys>`,
 /// `chess-set-<files>`, and `<scene>-tessellated` for the tessellated baseline.
@@ -629,6 +632,9 @@ pub fn builtin(name: &str) -> Option<Scene> {
         return Some(s);
     }
     if let Some(s) = crate::meshless_scenes::by_name(name) {
+        return Some(s);
+    }
+    if let Some(s) = crate::volume_scenes::by_name(name) {
         return Some(s);
     }
     match name {

@@ -24,6 +24,8 @@
 //! - `KHR_lights_punctual` point and spot lights at their node's world position and
 //!   `−z` axis, `color × intensity` read as W/sr (see [`crate::light`]); directional
 //!   lights are skipped with a warning and `range` is ignored.
+//! - participating media from the node extension `WAVELUX_medium`
+//!   ([`crate::gltf_medium`]).
 //!
 //! Buffers are read with the glTF crate; accessors are decoded here with explicit,
 //! checked bounds (sparse and quantised accessors are rejected as unsupported), so
@@ -256,6 +258,11 @@ impl<'a> Loader<'a> {
             }
             if let Some(light) = node.light() {
                 self.light(node, &light, &world)?;
+            }
+            if let Some(v) = node.extension_value(crate::gltf_medium::EXTENSION) {
+                let read = |a: usize, el: &str| self.read_floats(a, el);
+                let m = crate::gltf_medium::medium(self.file, i, node.name(), v, &world, &read)?;
+                self.scene.media.push(m);
             }
             for c in node.children().collect::<Vec<_>>().into_iter().rev() {
                 stack.push((c.index(), world));
@@ -568,6 +575,34 @@ impl<'a> Loader<'a> {
             return Err(self.malformed(what, "accessor exceeds its buffer view"));
         };
         Ok((data, stride, count))
+    }
+
+    /// A `FLOAT` `SCALAR` or `VEC3` accessor by index: `(values, components)`.
+    fn read_floats(&self, index: usize, element: &str) -> Result<(Vec<f64>, usize), SceneError> {
+        let Some(acc) = self.document.accessors().nth(index) else {
+            return Err(self.malformed(element, format!("accessor {index} does not exist")));
+        };
+        let comps = match acc.dimensions() {
+            Dimensions::Scalar => 1,
+            Dimensions::Vec3 => 3,
+            _ => 0,
+        };
+        if comps == 0 || acc.data_type() != DataType::F32 {
+            return Err(self.unsupported(
+                format!("{element}: accessor {index}"),
+                "grids are FLOAT SCALAR or VEC3 accessors",
+            ));
+        }
+        let (data, stride, count) = self.accessor_bytes(&acc, element)?;
+        let mut out = Vec::with_capacity(count * comps);
+        for k in 0..count {
+            for c in 0..comps {
+                let o = k * stride + 4 * c;
+                let b = &data[o..o + 4];
+                out.push(f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]])));
+            }
+        }
+        Ok((out, comps))
     }
 
     fn read_vec3(&self, acc: &gltf::Accessor<'_>, element: &str) -> Result<Vec<DVec3>, SceneError> {

@@ -9,15 +9,19 @@
 //! - [`light`]: punctual point and spot lights (glTF `KHR_lights_punctual` falloff);
 //! - [`group`]: mesh grouping — connected coplanar triangles become the complex
 //!   polygons they tile, so a meshed wall, disk or floor with holes is one surface;
-//! - [`medium`]: voxel grids of source, opacity and albedo (GlobalCube §2.1, §3.1);
+//! - [`medium`]: voxel grids of opacity (grey), source and albedo (RGB) (GlobalCube
+//!   §2.1, §3.1), raw `f32` grid files;
 //! - [`gltf_load`]: glTF 2.0 (`.gltf`, `.glb`) loader; [`gltf_write`]: the GLB writer
-//!   of scenes made of triangles, parallelograms and meshes;
+//!   of scenes made of triangles, parallelograms and meshes; [`gltf_medium`]: the
+//!   loader's node extension `WAVELUX_medium`;
 //! - [`native`]: the native TOML format (documented in `docs/scene-format.md`);
 //! - [`analytic`]: trimmed analytic patches on `wavelux-param`'s equal-area maps;
 //! - [`builtin`]: Cornell box, Ziegler §4.1.1 and §4.2.1 scenes, white furnace, and
 //!   the VirtualMesh §6 scenes by name;
 //! - [`meshless_scenes`]: the meshless method's scenes (atrium, leak rooms, closed
 //!   sphere);
+//! - [`volume_scenes`]: the Global Cube's participating-medium scenes (`gc-lounge`,
+//!   `gc-entrance`, GlobalCube §5) at any `2^k` resolution;
 //! - [`virtual_mesh`]: VirtualMesh §6's test scenes — architecture (complex polygons),
 //!   quadric teapot, chess set;
 //! - [`tessellated`]: their tessellated baselines (VirtualMesh §6.1–6.2);
@@ -47,6 +51,7 @@ pub mod camera;
 pub mod error;
 pub mod fixtures;
 pub mod gltf_load;
+pub mod gltf_medium;
 pub mod gltf_write;
 pub mod group;
 pub mod light;
@@ -59,6 +64,7 @@ pub mod scene;
 pub mod shape;
 pub mod tessellated;
 pub mod virtual_mesh;
+pub mod volume_scenes;
 
 use std::path::Path;
 
