@@ -26,6 +26,8 @@
 //! - [`texels`]: lightmap-like texel grids over every lit side at a fixed density,
 //!   any field evaluated on them, and the area-weighted relative L1 error of the
 //!   function against a path-traced texel reference with its noise floor;
+//! - [`volume_image`]: the emission–absorption image and slices of a solved medium
+//!   (`wavelux_volume`, GlobalCube §3.1);
 //! - [`export`]: glTF export with baked per-vertex radiosity and per-patch lightmaps.
 //!
 //! # Units
@@ -46,6 +48,7 @@ pub mod reference;
 pub mod render;
 mod sampling;
 pub mod texels;
+pub mod volume_image;
 
 pub use camera::{View, auto_camera, scene_up};
 pub use direct::DirectLight;
@@ -57,6 +60,7 @@ pub use reference::glossy::{GlossyTracer, TracedRadiance};
 pub use reference::{PathTracer, ReferenceOptions, SurfaceEstimate};
 pub use render::{RenderOptions, RenderStats, render};
 pub use texels::{Texel, TexelGrid, TexelMetrics, TexelValues};
+pub use volume_image::{render_volume, volume_slice};
 
 /// Errors of the renderer, exporters and the reference.
 #[derive(Debug, thiserror::Error)]

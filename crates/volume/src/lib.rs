@@ -57,6 +57,11 @@
 //! oracles and eqs. (33)–(34) is [`mod@solve`]; the relaxations (Jacobi eq. (28),
 //! Gauss–Seidel, GMRES) are in [`system`].
 //!
+//! # Surfaces
+//! [`voxelize()`] rasterises a surface scene into opaque cells (GlobalCube §2.1's
+//! surfaces as thin volumes) inside a black opaque shell, so one scene can be solved by
+//! both the surface methods and the global cube.
+//!
 //! # Backends
 //! The projection is the [`backend::Projector`] trait with the CPU implementation
 //! [`backend::cpu::CpuProjector`] (modes `exact` and `pyramid`) and a conformance
@@ -77,6 +82,7 @@ pub mod hierarchy;
 pub mod solution;
 pub mod solve;
 pub mod system;
+pub mod voxelize;
 
 pub use backend::cpu::{CpuProjector, Projection};
 pub use backend::{Projector, TraversalCell};
@@ -87,3 +93,4 @@ pub use hierarchy::CoarseOpacity;
 pub use solution::{VolumeSolution, q_square, rms};
 pub use solve::{GlobalCubeConfig, Oracle, Relaxation, StepRecord, Threshold, solve};
 pub use system::Energy;
+pub use voxelize::voxelize;
