@@ -62,6 +62,9 @@ pub enum MethodArg {
     /// Glossy global illumination with 4D Haar radiance, Ward BRDFs and importance
     /// (Glossy §3-§5).
     Glossy,
+    /// Volume radiosity of a participating medium with the hierarchical Global Cube
+    /// (GlobalCube §2-§5); surfaces only through --voxelize.
+    GlobalCube,
 }
 
 /// Basis of the wavelet solver.
@@ -109,10 +112,18 @@ pub enum VisibilityArg {
 /// Refinement oracle.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum OracleArg {
-    /// Kernel smoothness (eps dimensionless).
+    /// Kernel smoothness (eps dimensionless; gather's default).
     Kernel,
     /// Kernel smoothness times brightness (eps in W/m2).
     Brightness,
+    /// Global cube: details of the source or opacity (GlobalCube §4.2).
+    Static,
+    /// Global cube: differences of a cell's face powers.
+    Dynamic,
+    /// Global cube: static first, then dynamic (the paper; global-cube's default).
+    Both,
+    /// Global cube: no oracle, every cell refined (the standard global cube).
+    None,
 }
 
 /// Mesh grouping of the loaders (`wavelux_scene::MeshGrouping`).
@@ -153,9 +164,9 @@ pub struct SolveArgs {
     /// Smallest element area (scene units squared).
     #[arg(long, default_value_t = 0.0)]
     pub min_area: f64,
-    /// Refinement oracle.
-    #[arg(long, value_enum, default_value_t = OracleArg::Kernel)]
-    pub oracle: OracleArg,
+    /// Refinement oracle [default: kernel; global-cube: both].
+    #[arg(long, value_enum)]
+    pub oracle: Option<OracleArg>,
     /// Linear solver of `gather` [default: gmres]; `southwell` selects `--method shoot`.
     #[arg(long, value_enum)]
     pub solver: Option<SolverArg>,
@@ -169,9 +180,10 @@ pub struct SolveArgs {
     /// Maximum iterations (sweeps) per channel.
     #[arg(long, default_value_t = 100)]
     pub max_iterations: usize,
-    /// Relative residual tolerance of the linear solve.
-    #[arg(long, default_value_t = 1e-6)]
-    pub tolerance: f64,
+    /// Relative residual tolerance of the linear solve [default: 1e-6; global-cube:
+    /// the largest relative update, 1e-4].
+    #[arg(long)]
+    pub tolerance: Option<f64>,
     /// Visibility in transfer blocks.
     #[arg(long, value_enum, default_value_t = VisibilityArg::Quadrature)]
     pub visibility: VisibilityArg,
@@ -246,6 +258,9 @@ pub struct SolveArgs {
     /// Options of `--method glossy`.
     #[command(flatten)]
     pub glossy: GlossyArgs,
+    /// Options of `--method global-cube`.
+    #[command(flatten)]
+    pub volume: VolumeArgs,
 }
 
 /// Options of the glossy method (`--method glossy`; `--solver`, `--max-level`,
@@ -296,12 +311,77 @@ pub struct GlossyArgs {
     pub lobe_samples: usize,
 }
 
+/// Options of the global cube (`--method global-cube`, GlobalCube §3–§4). It shares
+/// `--levels` (the coarse levels L, default 2), `--oracle`, `--solver` (jacobi,
+/// gauss-seidel, gmres), `--tolerance` and `--max-iterations` with the other methods.
+#[derive(Args, Clone, Debug)]
+pub struct VolumeArgs {
+    /// Global cube: framebuffer side N cap (1..=1024); a level-l receiver uses
+    /// min(N, side >> l) (the paper's 16², 32², 64² for 16³, 32³, 64³).
+    #[arg(long, default_value_t = 32)]
+    pub framebuffer: usize,
+    /// Global cube: every refinement threshold, in 8-bit units t/255 of the
+    /// quantity's range (GlobalCube Fig. 10: 13 ... 93) [default: 33].
+    #[arg(long)]
+    pub threshold: Option<f64>,
+    /// Global cube: static threshold on source details (8-bit units) [default: --threshold].
+    #[arg(long)]
+    pub threshold_source: Option<f64>,
+    /// Global cube: static threshold on opacity details (8-bit units) [default: --threshold].
+    #[arg(long)]
+    pub threshold_opacity: Option<f64>,
+    /// Global cube: dynamic threshold on face-power differences (8-bit units of the
+    /// lowpass solution's largest face power) [default: --threshold].
+    #[arg(long)]
+    pub threshold_chi: Option<f64>,
+    /// Global cube: relaxations per refinement step (the paper: 1).
+    #[arg(long, default_value_t = 1)]
+    pub relaxations: usize,
+    /// Global cube: projection of the CPU backend.
+    #[arg(long, value_enum, default_value_t = ProjectionArg::Exact)]
+    pub projection: ProjectionArg,
+    /// Global cube: routing Γ (eq. 32): `normalized` (Γ_ii = σ, conserves energy) or
+    /// `printed` (Γ_ii = 1 as printed; creates energy).
+    #[arg(long, value_enum, default_value_t = GammaArg::Normalized)]
+    pub gamma: GammaArg,
+    /// Global cube: the medium to solve (required when the scene has several).
+    #[arg(long)]
+    pub medium: Option<String>,
+    /// Global cube: rasterise the scene's surfaces into an N³ grid (N a power of two,
+    /// 2..=256): surfaces become opaque cells with their reflectance as albedo,
+    /// emitters sources.
+    #[arg(long)]
+    pub voxelize: Option<usize>,
+    /// Global cube: solve the medium and ignore the scene's surfaces.
+    #[arg(long, conflicts_with = "voxelize")]
+    pub ignore_surfaces: bool,
+}
+
+/// Projection of the global cube's CPU backend.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ProjectionArg {
+    /// Every cell at full resolution along every pixel ray.
+    Exact,
+    /// Sample the pyramid level matching the pixel footprint (for 256³).
+    Pyramid,
+}
+
+/// Routing convention of the global cube (GlobalCube eq. 32).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum GammaArg {
+    /// Γ_ii = σ: rows sum to 1 (energy-conserving; default).
+    Normalized,
+    /// Γ_ii = 1 as printed: rows sum to 2 − σ (creates energy).
+    Printed,
+}
+
 /// Options of the meshless method (`--method meshless`).
 #[derive(Args, Clone, Debug)]
 pub struct MeshlessArgs {
-    /// Meshless: receiver levels L_r (1..=16).
-    #[arg(long, default_value_t = 6)]
-    pub levels: usize,
+    /// Meshless: receiver levels L_r (1..=16) [default: 6]; global cube: coarse levels
+    /// L (M = m0 + L, 0 = the standard global cube) [default: 2].
+    #[arg(long)]
+    pub levels: Option<usize>,
     /// Meshless: sender levels L_s (the first levels; 1..=levels).
     #[arg(long, default_value_t = 3)]
     pub sender_levels: usize,

@@ -108,6 +108,10 @@ pub struct MethodInfo {
     /// `--method glossy`: its knobs (null otherwise).
     #[serde(default)]
     pub glossy: Option<serde_json::Value>,
+    /// `--method global-cube`: its whole configuration (`wavelux_volume::GlobalCubeConfig`;
+    /// null otherwise).
+    #[serde(default)]
+    pub global_cube: Option<serde_json::Value>,
     /// Monte Carlo samples per surface (reference or error check).
     pub samples: u64,
     /// Worker threads.
@@ -228,6 +232,48 @@ pub struct Statistics {
     /// (`wavelux_glossy::GlossyStats`; null otherwise).
     #[serde(default)]
     pub glossy: Option<serde_json::Value>,
+    /// `--method global-cube`: the medium, energy account, solve steps and timings
+    /// (null otherwise).
+    #[serde(default)]
+    pub volume: Option<VolumeStats>,
+}
+
+/// Statistics of `--method global-cube` (GlobalCube Table 1's quantities and the
+/// energy account).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct VolumeStats {
+    /// The medium's name.
+    pub medium: String,
+    /// `--voxelize N` (null for a medium of the scene).
+    pub voxelized: Option<usize>,
+    /// Voxels per axis of the padded cubic lattice.
+    pub side: usize,
+    /// The medium's voxel counts `[nx, ny, nz]` before padding.
+    pub extent: [usize; 3],
+    /// Voxel edge (scene units).
+    pub voxel: f64,
+    /// Active cells of the final solution.
+    pub elements: usize,
+    /// The projection backend.
+    pub projector: String,
+    /// Source power per channel (W).
+    pub emitted: [f64; 3],
+    /// Absorbed power per channel (W).
+    pub absorbed: [f64; 3],
+    /// Power escaped through the lattice's boundary per channel (W).
+    pub escaped: [f64; 3],
+    /// Collided power per channel (W).
+    pub collided: [f64; 3],
+    /// `(emitted − absorbed − escaped) / emitted` per channel.
+    pub balance_error: [f64; 3],
+    /// Every step of the solve loop (`wavelux_volume::StepRecord`: level, step, kind,
+    /// elements, static and dynamic refinements, relaxations, largest update, seconds,
+    /// energy).
+    pub steps: serde_json::Value,
+    /// Projector work (`wavelux_volume::system::Work`).
+    pub work: serde_json::Value,
+    /// Wall seconds of the solve.
+    pub solve_seconds: f64,
 }
 
 /// The target-error loop of a run (`--target-error`).
@@ -329,4 +375,11 @@ pub struct Outputs {
     /// Texel file (`--texels`).
     #[serde(default)]
     pub texels: Option<String>,
+    /// `--method global-cube`: the raw emission grid (`side³ × 3` little-endian f32, x
+    /// fastest, RGB interleaved, W/m³).
+    #[serde(default)]
+    pub volume_emission: Option<String>,
+    /// `--method global-cube`: slice PNGs of the emission density across x, y and z.
+    #[serde(default)]
+    pub volume_slices: Vec<String>,
 }

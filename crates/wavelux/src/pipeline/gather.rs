@@ -2,7 +2,7 @@
 //! ch. 2–4) on the Virtual Mesh's supports, solved by Picard, Gauss–Seidel, GMRES or
 //! CGNR.
 
-use anyhow::Context;
+use anyhow::{Context, bail};
 use wavelux::solver::{LinearMethod, Oracle, SolverConfig};
 
 use super::wavelet::{basis_kind, finish, visibility};
@@ -32,27 +32,29 @@ pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
         SolverArg::Cgnr => LinearMethod::Cgnr,
         SolverArg::Southwell => return super::shoot::plan(a),
     };
+    let oracle = a.oracle.unwrap_or(OracleArg::Kernel);
     let cfg = SolverConfig {
         basis: basis_kind(a.basis.unwrap_or(BasisArg::M3)),
         eps: a.eps.unwrap_or(1e-2),
         max_level: a.max_level.unwrap_or(MAX_LEVEL),
         min_area: a.min_area,
-        oracle: match a.oracle {
+        oracle: match oracle {
             OracleArg::Kernel => Oracle::KernelSmoothness,
             OracleArg::Brightness => Oracle::Brightness,
+            o => bail!("--oracle {} applies to --method global-cube", name_of(o)),
         },
         visibility: visibility(a.visibility),
         quad_points: a.quad,
         linear_method,
         max_iterations: a.max_iterations,
-        tolerance: a.tolerance,
+        tolerance: a.tolerance.unwrap_or(1e-6),
         ..SolverConfig::default()
     };
     cfg.validate().context("invalid solver option")?;
     Ok(Box::new(Gather {
         cfg,
         solver,
-        oracle: a.oracle,
+        oracle,
         visibility: a.visibility,
     }))
 }

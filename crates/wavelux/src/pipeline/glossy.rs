@@ -111,7 +111,7 @@ pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
             DirectionsArg::Concentric => DirectionKind::Concentric,
         },
         solver,
-        tolerance: a.tolerance,
+        tolerance: a.tolerance.unwrap_or(1e-6),
         max_iterations: a.max_iterations,
         rounds: g.rounds,
         fraction: g.fraction,

@@ -55,7 +55,7 @@ pub fn config(a: &SolveArgs) -> anyhow::Result<MeshlessConfig> {
         bail!("--emitter-samples must be >= 1");
     }
     let config = MeshlessConfig {
-        receiver_levels: m.levels,
+        receiver_levels: m.levels.unwrap_or(6),
         sender_levels: m.sender_levels,
         r_coarse: m.r_coarse,
         gather_rays: m.gather_rays,

@@ -3,13 +3,16 @@
 //!
 //! Each global-illumination method is one module implementing [`Method`]: `gather`
 //! (wavelet radiosity with links), `shoot` (linkless shooting), `reference` (the
-//! path tracer), `meshless` (precomputed meshless transfer, one frame) and `glossy`
-//! (4D Haar radiance with Ward BRDFs and importance); `wavelet` holds what gathering and shooting share (statistics, surface
-//! averages, the error check and the image of a wavelet [`Solution`]). Adding a method
+//! path tracer), `meshless` (precomputed meshless transfer, one frame), `glossy`
+//! (4D Haar radiance with Ward BRDFs and importance) and `global_cube` (volume
+//! radiosity of a medium); `wavelet` holds what gathering and shooting share
+//! (statistics, surface averages, the error check and the image of a wavelet
+//! [`Solution`]). Adding a method
 //! is a new module, a `MethodArg` variant and one arm in [`plan`].
 
 mod error_check;
 mod gather;
+mod global_cube;
 pub mod glossy;
 mod meshless;
 mod output;
@@ -104,6 +107,7 @@ pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
         MethodArg::Gather => gather::plan(a),
         MethodArg::Meshless => meshless::plan(a),
         MethodArg::Glossy => glossy::plan(a),
+        MethodArg::GlobalCube => global_cube::plan(a),
     }
 }
 
@@ -235,6 +239,7 @@ fn base_info(a: &SolveArgs, threads: usize) -> report::MethodInfo {
         max_shots: None,
         meshless: None,
         glossy: None,
+        global_cube: None,
         samples: a.samples,
         threads,
         seed: a.seed,

@@ -58,6 +58,17 @@ pub fn write_files(
         outputs.lightmaps = a
             .lightmaps
             .map(|_| lightmaps_dir(a, stem).display().to_string());
+    } else if a.method == MethodArg::GlobalCube && a.gltf.is_none() && a.lightmaps.is_none() {
+        // Written by the method itself (they need its solution).
+        outputs.volume_emission = Some(
+            super::global_cube::raw_path(&a.out, stem)
+                .display()
+                .to_string(),
+        );
+        outputs.volume_slices = super::global_cube::slice_paths(&a.out, stem)
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect();
     } else if a.gltf.is_some() || a.lightmaps.is_some() {
         bail!(
             "--gltf and --lightmaps export a wavelet or meshless solution; --method {} has none",

@@ -29,7 +29,7 @@ pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
             name_of(s)
         );
     }
-    if a.oracle != OracleArg::Kernel {
+    if a.oracle.is_some_and(|o| o != OracleArg::Kernel) {
         bail!("--oracle applies to --method gather; the shooting oracle is relative to the shot");
     }
     let cfg = ShootConfig {

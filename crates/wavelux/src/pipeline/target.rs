@@ -48,7 +48,7 @@ pub fn plan(a: &SolveArgs, target: f64) -> anyhow::Result<Box<dyn Method>> {
     cfg.solver.quad_points = a.quad;
     cfg.solver.linear_method = linear_method;
     cfg.solver.max_iterations = a.max_iterations;
-    cfg.solver.tolerance = a.tolerance;
+    cfg.solver.tolerance = a.tolerance.unwrap_or(1e-6);
     cfg.validate().context("invalid --target-error option")?;
     Ok(Box::new(Target {
         cfg,

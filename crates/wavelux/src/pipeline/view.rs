@@ -1,5 +1,6 @@
 //! The view of the image: camera flags (`render --eye/--target`), a scene camera by
-//! name, the scene's first camera, or an automatic camera framing the scene.
+//! name, the scene's first camera, or an automatic camera framing the scene (or the
+//! first medium of a scene without surfaces).
 
 use anyhow::{Context, bail};
 use glam::DVec3;
@@ -46,5 +47,18 @@ pub fn choose_view(scene: &Scene, a: &SolveArgs, cam: Option<&CameraArgs>) -> an
         return View::new(camera, w, h).context("invalid scene camera");
     }
     let up = wavelux::render::scene_up(scene, is_gltf(&a.scene));
+    if scene.surfaces.is_empty()
+        && let Some(m) = scene.media.first()
+    {
+        // A medium alone: look at its box from outside, along a diagonal.
+        let (c, d) = (0.5 * (m.min + m.max), (m.max - m.min).length());
+        let toward = [DVec3::Z, DVec3::X]
+            .into_iter()
+            .find(|t| t.dot(up).abs() < 0.9)
+            .unwrap_or(DVec3::Z);
+        let eye = c + (toward + 0.4 * up).normalize() * (1.5 * d);
+        return View::look_at(eye, c, up, 40f64.to_radians(), w, h)
+            .context("automatic camera of the medium");
+    }
     Ok(View::new(&wavelux::render::auto_camera(scene, up)?, w, h)?)
 }

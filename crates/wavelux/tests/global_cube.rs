@@ -1,0 +1,202 @@
+//! `wavelux solve --method global-cube` (GlobalCube §5): the built-in lounge and a
+//! voxelised Cornell box at small sizes, their outputs (JSON energy account, raw grid,
+//! slices, image) and the typed errors of bad options.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use anyhow::{Context, Result};
+use serde_json::Value;
+
+const EXE: &str = env!("CARGO_BIN_EXE_wavelux");
+
+/// Small settings (dev profile).
+const SMALL: &[&str] = &[
+    "--method",
+    "global-cube",
+    "--width",
+    "16",
+    "--height",
+    "12",
+    "--spp",
+    "1",
+    "--threads",
+    "2",
+    "--quiet",
+];
+
+fn run(args: &[&str], cwd: &Path) -> Output {
+    Command::new(EXE)
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("the wavelux binary runs")
+}
+
+fn solve(scene: &str, extra: &[&str], cwd: &Path) -> Result<Value> {
+    let mut args = vec!["solve", scene];
+    args.extend_from_slice(SMALL);
+    args.extend_from_slice(&["--levels", "1", "--framebuffer", "4", "--tolerance", "1e-3"]);
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["--out", "out"]);
+    let out = run(&args, cwd);
+    anyhow::ensure!(
+        out.status.success(),
+        "wavelux {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stem = scene.strip_prefix("builtin:").context("built-in")?;
+    let stem = if stem == "cornell-box" {
+        "cornell"
+    } else {
+        stem
+    };
+    let json = cwd.join("out").join(format!("{stem}.json"));
+    Ok(serde_json::from_str(&std::fs::read_to_string(json)?)?)
+}
+
+fn triple(v: &Value) -> [f64; 3] {
+    std::array::from_fn(|c| v[c].as_f64().unwrap())
+}
+
+/// The JSON's energy account is consistent: finite, non-negative, the balance error is
+/// `(emitted − absorbed − escaped)/emitted`, and collisions include the absorptions.
+/// (Its size is the projector's discretisation: at these tiny framebuffers, 8–11 %.)
+fn account(s: &Value) {
+    let (e, a, x, c) = (
+        triple(&s["emitted"]),
+        triple(&s["absorbed"]),
+        triple(&s["escaped"]),
+        triple(&s["collided"]),
+    );
+    let bal = triple(&s["balance_error"]);
+    for k in 0..3 {
+        assert!(
+            [e[k], a[k], x[k], c[k]]
+                .iter()
+                .all(|v| v.is_finite() && *v >= 0.0)
+        );
+        assert!(
+            ((e[k] - a[k] - x[k]) / e[k] - bal[k]).abs() < 1e-12,
+            "{bal:?}"
+        );
+        assert!(c[k] >= a[k], "collided {c:?} < absorbed {a:?}");
+        assert!(bal[k].abs() < 0.25, "balance {bal:?}");
+    }
+}
+
+#[test]
+fn lounge_outputs_and_energy_account() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let v = solve("builtin:gc-lounge-8", &[], dir.path())?;
+    assert_eq!(v["method"]["name"], "global-cube");
+    assert_eq!(v["method"]["global_cube"]["levels"], 1);
+    let s = &v["statistics"]["volume"];
+    assert_eq!(s["side"], 8);
+    // The lamp's 60/54/42 W, whatever the resolution.
+    let emitted = triple(&s["emitted"]);
+    for (e, want) in emitted.iter().zip([60.0, 54.0, 42.0]) {
+        assert!((e - want).abs() < 1e-9 * want, "{emitted:?}");
+    }
+    account(s);
+    let steps = s["steps"].as_array().context("steps")?;
+    assert_eq!(steps.first().context("a step")?["kind"], "lowpass");
+    assert_eq!(steps.last().context("a step")?["kind"], "final");
+    // Files: raw grid of side³ × 3 f32, three slices, the image.
+    let at = |p: &Value| dir.path().join(p.as_str().unwrap_or_default());
+    let raw = std::fs::metadata(at(&v["outputs"]["volume_emission"]))?;
+    assert_eq!(raw.len(), 8 * 8 * 8 * 3 * 4);
+    let slices = v["outputs"]["volume_slices"].as_array().context("slices")?;
+    assert_eq!(slices.len(), 3);
+    for p in slices {
+        assert!(at(p).exists(), "{p}");
+    }
+    let png = wavelux::render::Image::read_png(&at(&v["outputs"]["png"]))?;
+    assert_eq!((png.width, png.height), (16, 12));
+    assert!(png.pixels.iter().any(|p| p[0] > 0.0), "a black image");
+    Ok(())
+}
+
+#[test]
+fn voxelised_cornell_box_keeps_its_power() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let v = solve(
+        "builtin:cornell-box",
+        &["--voxelize", "8", "--no-image"],
+        dir.path(),
+    )?;
+    let s = &v["statistics"]["volume"];
+    assert_eq!(s["voxelized"], 8);
+    let want = triple(&v["scene"]["emitted_power"]);
+    let got = triple(&s["emitted"]);
+    for c in 0..3 {
+        assert!(
+            (got[c] - want[c]).abs() <= 1e-9 * want[c],
+            "{got:?} vs {want:?}"
+        );
+    }
+    account(s);
+    Ok(())
+}
+
+#[test]
+fn bad_options_are_errors() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let cwd = dir.path();
+    for (scene, extra, needle) in [
+        ("builtin:cornell-box", &[][..], "--voxelize"),
+        (
+            "builtin:cornell-box",
+            &["--voxelize", "12"][..],
+            "power of two",
+        ),
+        (
+            "builtin:gc-lounge-8",
+            &["--oracle", "kernel"][..],
+            "--oracle kernel",
+        ),
+        (
+            "builtin:gc-lounge-8",
+            &["--solver", "cgnr"][..],
+            "--solver cgnr",
+        ),
+        (
+            "builtin:gc-lounge-8",
+            &["--medium", "fog"][..],
+            "no medium \"fog\"",
+        ),
+        (
+            "builtin:gc-lounge-8",
+            &["--framebuffer", "0"][..],
+            "framebuffer",
+        ),
+        ("builtin:gc-lounge-8", &["--levels", "4"][..], "levels"),
+        ("builtin:gc-lounge-8", &["--threshold=-1"][..], "threshold"),
+    ] {
+        let mut args = vec!["solve", scene];
+        args.extend_from_slice(SMALL);
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--out", "out", "--no-image"]);
+        let out = run(&args, cwd);
+        assert!(!out.status.success(), "{args:?} should fail");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    // Gathering refuses the global cube's oracles.
+    let out = run(
+        &[
+            "solve",
+            "builtin:cornell-box",
+            "--oracle",
+            "both",
+            "--no-image",
+            "--out",
+            "out",
+        ],
+        cwd,
+    );
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("global-cube"));
+    Ok(())
+}
