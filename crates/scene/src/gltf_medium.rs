@@ -105,7 +105,8 @@ pub(crate) fn medium(
             ))),
             GridSpec::Accessor { accessor } => {
                 let (vals, comps) = read(*accessor, &format!("{element} {what}"))?;
-                if (comps != 1 && comps != 3) || (grey_only && comps != 1) {
+                let allowed = comps == 1 || (comps == 3 && !grey_only);
+                if !allowed {
                     return Err(malformed(format!(
                         "{what} accessor {accessor} has {comps} components; expected SCALAR{}",
                         if grey_only { "" } else { " or VEC3" }

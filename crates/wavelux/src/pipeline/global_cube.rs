@@ -259,7 +259,7 @@ fn volume_stats(sol: &VolumeSolution, voxelized: Option<usize>) -> report::Volum
         collided: sol.energy.collided,
         balance_error: sol.energy.balance_error(),
         steps: serde_json::to_value(&sol.steps).unwrap_or_default(),
-        work: serde_json::to_value(&sol.work).unwrap_or_default(),
+        work: serde_json::to_value(sol.work).unwrap_or_default(),
         solve_seconds: sol.seconds,
     }
 }
