@@ -37,6 +37,7 @@ use obvhs::ray::{Ray as FRay, RayHit};
 use rayon::prelude::*;
 
 use crate::GeometryError;
+use crate::backend::{AccelExport, ExportFrame, ExportSlot, OcclusionStats, SlotKind};
 use crate::intersect::WatertightRay;
 use crate::primitive::{Aabb, Hit, PrimId, Primitive, Ray, Triangle};
 
@@ -315,7 +316,7 @@ impl Accel {
             return false;
         }
         let is_ignored = |id: PrimId| ignore[0] == Some(id) || ignore[1] == Some(id);
-        let Some((fray, _)) = self.frame.ray(&self.bounds, &ray, 0.0, len) else {
+        let Some(fray) = self.traversal_ray(p, q) else {
             return false;
         };
         let wray = WatertightRay::new(&ray);
@@ -361,6 +362,8 @@ impl Accel {
     }
 
     /// Occlusion of many queries with per-query `ignore` lists, in parallel (rayon).
+    /// The statistics count every query as deferred to the CPU (the reference
+    /// [`crate::backend::Occluder`]).
     ///
     /// # Errors
     /// [`GeometryError::OutOfRange`] if `out` and `queries` differ in length.
@@ -368,7 +371,7 @@ impl Accel {
         &self,
         queries: &[OcclusionQuery],
         out: &mut [bool],
-    ) -> Result<(), GeometryError> {
+    ) -> Result<OcclusionStats, GeometryError> {
         if out.len() != queries.len() {
             return Err(GeometryError::OutOfRange {
                 index: out.len(),
@@ -379,7 +382,11 @@ impl Accel {
             .with_min_len(256)
             .zip(queries.par_iter())
             .for_each(|(o, qu)| *o = self.occluded(qu.p, qu.q, qu.ignore));
-        Ok(())
+        Ok(OcclusionStats {
+            queries: queries.len(),
+            device_rays: 0,
+            deferred_rays: queries.len(),
+        })
     }
 
     /// Closest hits of many rays in parallel (rayon), each over `t ∈ [tmin, tmax]`.
@@ -443,4 +450,129 @@ impl Accel {
             }
         })
     }
+}
+
+/// The upload view for device backends (issue 17; kept apart from the traversal code).
+impl Accel {
+    /// The f32 ray [`Accel::occluded`] traverses for the segment `p → q` (normalised
+    /// frame, clipped to the padded scene box and backed off by [`TRAVERSAL_BACKOFF`]);
+    /// `None` when `occluded` answers without traversal (empty scene, coincident or
+    /// non-finite end points, a segment missing the scene box).
+    pub fn traversal_ray(&self, p: DVec3, q: DVec3) -> Option<FRay> {
+        self.bvh.as_ref()?;
+        let len = (q - p).length();
+        if len == 0.0 || !len.is_finite() {
+            return None;
+        }
+        let ray = Ray {
+            origin: p,
+            dir: (q - p) / len,
+        };
+        self.frame
+            .ray(&self.bounds, &ray, 0.0, len)
+            .map(|(fray, _)| fray)
+    }
+
+    /// The upload view: this accelerator's own CWBVH nodes, one [`ExportSlot`] per
+    /// leaf entry in leaf order (the order `occluded` visits them through), and the
+    /// frame constants (see [`crate::backend`]).
+    pub fn export(&self) -> AccelExport<'_> {
+        let f = self.frame;
+        let to = |x: DVec3| {
+            let y = (x - f.centre) * f.scale;
+            [y.x as f32, y.y as f32, y.z as f32]
+        };
+        let slots = match &self.bvh {
+            None => Vec::new(),
+            Some(bvh) => bvh
+                .primitive_indices
+                .iter()
+                .map(|&i| {
+                    let prim = &self.prims[i as usize];
+                    let (kind, pts): (SlotKind, Vec<DVec3>) = match prim {
+                        Primitive::Triangle(t) => (SlotKind::Triangle, t.v.to_vec()),
+                        Primitive::Parallelogram(g) => (SlotKind::Quad, g.corners().to_vec()),
+                        Primitive::Polygon(poly) if convex_corners(&poly.region).is_some() => {
+                            let c = convex_corners(&poly.region).unwrap_or_default();
+                            let kind = if c.len() == 3 {
+                                SlotKind::Triangle
+                            } else {
+                                SlotKind::Quad
+                            };
+                            (kind, c.iter().map(|q| poly.frame.to_world(*q)).collect())
+                        }
+                        Primitive::Polygon(poly) => {
+                            let (lo, hi) = poly.region.bounds();
+                            let fr = &poly.frame;
+                            (
+                                SlotKind::Plane,
+                                vec![
+                                    fr.to_world(lo),
+                                    fr.to_world(glam::DVec2::new(hi.x, lo.y)),
+                                    fr.to_world(glam::DVec2::new(lo.x, hi.y)),
+                                ],
+                            )
+                        }
+                        _ => (SlotKind::Curved, Vec::new()),
+                    };
+                    let mut points = [[0f32; 3]; 4];
+                    for (dst, p) in points.iter_mut().zip(&pts) {
+                        *dst = to(*p);
+                    }
+                    let size = if pts.is_empty() {
+                        0.0
+                    } else {
+                        let b = Aabb::from_points(pts.iter().copied());
+                        // Rounded up so the error bounds stay bounds.
+                        ((b.max - b.min).max_element() * f.scale * (1.0 + 1e-6)) as f32
+                    };
+                    ExportSlot {
+                        prim: i,
+                        kind,
+                        planar: self.planar[i as usize],
+                        points,
+                        size,
+                    }
+                })
+                .collect(),
+        };
+        AccelExport {
+            nodes: self.bvh.as_ref().map_or(&[][..], |b| &b.nodes[..]),
+            slots,
+            frame: ExportFrame {
+                centre: f.centre,
+                scale: f.scale,
+                pad: f.pad,
+                eps: EPS_REL * self.diag,
+            },
+        }
+    }
+}
+
+/// The corners of a region that is one strictly convex loop of three or four straight
+/// segments (counter-clockwise), or `None`.
+fn convex_corners(region: &crate::trim::TrimRegion) -> Option<Vec<glam::DVec2>> {
+    let [lp] = region.loops.as_slice() else {
+        return None;
+    };
+    let mut pts = Vec::new();
+    for e in &lp.edges {
+        match e {
+            crate::trim::Edge2::Segment { a, .. } => pts.push(*a),
+            _ => return None,
+        }
+    }
+    if !(3..=4).contains(&pts.len()) {
+        return None;
+    }
+    let n = pts.len();
+    let size = (region.bounds().1 - region.bounds().0).max_element();
+    for i in 0..n {
+        let (a, b, c) = (pts[i], pts[(i + 1) % n], pts[(i + 2) % n]);
+        // Strictly convex turn at every corner, well above rounding.
+        if (b - a).perp_dot(c - b) <= 1e-9 * size * size {
+            return None;
+        }
+    }
+    Some(pts)
 }

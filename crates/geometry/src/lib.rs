@@ -6,6 +6,8 @@
 //!   [`Ray`], [`Hit`].
 //! - [`trim`]: trim loops and the slab decomposition of VirtualMesh §4.2 / Fig. 6.
 //! - [`accel`]: the obvhs BVH over all primitives: closest hit, occlusion, batches.
+//! - [`backend`]: the occlusion backend contract ([`backend::Occluder`],
+//!   [`backend::OcclusionBackend`]) with the CPU reference, and [`Accel::export`].
 //! - [`formfactor`]: analytic form factors (Lambert point-to-polygon, contour integral
 //!   polygon-to-polygon, catalog configurations).
 //! - [`bezier`]: bicubic Bézier evaluation and subdivision.
@@ -25,6 +27,7 @@
 //! ```
 
 pub mod accel;
+pub mod backend;
 pub mod bezier;
 pub mod formfactor;
 pub mod intersect;
@@ -54,6 +57,14 @@ pub enum GeometryError {
     /// The input is geometrically degenerate (the payload says how).
     #[error("degenerate geometry: {0}")]
     Degenerate(&'static str),
+    /// A device backend failed (the payloads name the device and what failed).
+    #[error("backend {device}: {message}")]
+    Backend {
+        /// The device (adapter name, or "cpu").
+        device: String,
+        /// What failed.
+        message: String,
+    },
     /// An index was out of range.
     #[error("index {index} out of range (len {len})")]
     OutOfRange {

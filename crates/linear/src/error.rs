@@ -73,6 +73,14 @@ pub enum LinearError {
         #[source]
         source: Unsupported,
     },
+    /// A device backend failed (the payloads name the device and what failed).
+    #[error("backend {device}: {message}")]
+    Backend {
+        /// The device (adapter name).
+        device: String,
+        /// What failed.
+        message: String,
+    },
     /// Sparse-matrix construction received an index outside the matrix.
     #[error("entry ({row}, {col}) lies outside a {n}×{n} matrix")]
     IndexOutOfRange {

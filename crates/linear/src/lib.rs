@@ -21,6 +21,10 @@
 //! channel-independent; only `K` with per-channel reflectance differs, in which case
 //! one operator per channel is used).
 //!
+//! Explicit matrices for devices (issue 17 (b)): [`backend`] ([`backend::Matrix`],
+//! [`backend::MatVecBackend`], the CPU reference [`backend::CpuMatVec`] and
+//! [`backend::BackendOperator`]).
+//!
 //! # Example
 //!
 //! ```
@@ -55,6 +59,7 @@
 //! breakdown is [`LinearError::Breakdown`] carrying the partial result. Happy
 //! breakdowns (GMRES found the exact solution) are successes.
 
+pub mod backend;
 pub mod error;
 pub mod history;
 pub mod krylov;
