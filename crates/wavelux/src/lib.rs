@@ -5,6 +5,7 @@
 
 pub use wavelux_geometry as geometry;
 pub use wavelux_glossy as glossy;
+pub use wavelux_gpu as gpu;
 pub use wavelux_linear as linear;
 pub use wavelux_meshless as meshless;
 pub use wavelux_mra as mra;
@@ -61,6 +62,10 @@ pub const CRATES: &[(&str, &str)] = &[
     (
         "wavelux-volume",
         "volume radiosity with the hierarchical Global Cube",
+    ),
+    (
+        "wavelux-gpu",
+        "wgpu backend: BVH occlusion and matrix-vector products, checked against the CPU",
     ),
     (
         "wavelux-render",
