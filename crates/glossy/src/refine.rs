@@ -17,7 +17,11 @@
 //! the receiving support from the point `z` that `y` sees along `ω` (the paper's
 //! "integral of GΓ"), estimated with stratified rays (plus the transparent eye's own
 //! `Γ_e`, integrated over its small solid angle); `R_r` is its radiance twin. With
-//! importance off, `I ≡ R ≡ 1`. A round computes every candidate whose value is at
+//! importance off, `I ≡ R ≡ 1`. Ours, where the paper is silent: `|ℓ_s|` is the
+//! sender's *reach*, the largest `|ℓ_d|·‖b_d‖₁/‖b_s‖₁` over the sender and its
+//! same-type descendants, so a wavelet whose coefficient vanishes by symmetry (the
+//! level-0 angular wavelets of a spotlight's centred lobe) still leads refinement to
+//! the finer wavelets that carry the lobe. A round computes every candidate whose value is at
 //! least `fraction ×` the largest; with a largest value of 0 refinement stops.
 //! Candidates whose samples are all zero (the sender's direction cell misses the
 //! receiver, or everything is occluded) are remembered and never proposed again.
@@ -139,6 +143,10 @@ pub fn candidates(
         // Refine the sender.
         let stree = &funcs.trees[s.patch as usize];
         let rlevel = if l.recv_phi { 0 } else { rkey.level };
+        let node_pair = l
+            .phiphi
+            .iter()
+            .fold(0.0f64, |a, v| a.max(f64::from(v.abs())));
         if s.tau == 0 {
             for t in 1..=TYPES {
                 push(
@@ -147,7 +155,7 @@ pub fn candidates(
                         recv_patch: l.recv_patch,
                         recv_key: rkey,
                         recv_phi: l.recv_phi,
-                        est: var * l1_norm(rlevel) * l1_norm(0),
+                        est: sender_est(t, var * l1_norm(rlevel) * l1_norm(0), node_pair),
                     },
                     &mut out,
                 );
@@ -164,7 +172,11 @@ pub fn candidates(
                             recv_patch: l.recv_patch,
                             recv_key: rkey,
                             recv_phi: l.recv_phi,
-                            est: var * l1_norm(rlevel) * l1_norm(skey.level + 1),
+                            est: sender_est(
+                                usize::from(s.tau),
+                                var * l1_norm(rlevel) * l1_norm(skey.level + 1),
+                                node_pair,
+                            ),
                         },
                         &mut out,
                     );
@@ -173,6 +185,18 @@ pub fn candidates(
         }
     }
     out
+}
+
+/// `est` of a sender refinement to wavelet type `tau`: `smooth` (the variation bound)
+/// for purely spatial types; for types with an angular factor, `node_pair`, the
+/// parent link's `T_{φ_R←φ_S}`. The transport evaluates a sender only along the
+/// directions `x → y`, a 2D slice of its 4D cell on which an angular wavelet does not
+/// average to zero, so the variation does not bound it (a small receiver under a
+/// spotlight sees a smooth kernel, yet the lobe's wavelets carry all its light); the
+/// kernel is non-negative and `|b| = φ` on a node's cell for every Haar type, so
+/// `|T_{r←s}| ≤ T_{φ_R←φ_S}` of their nodes, which the parent's value approximates.
+fn sender_est(tau: usize, smooth: f64, node_pair: f64) -> f64 {
+    if tau & 0b1100 != 0 { node_pair } else { smooth }
 }
 
 /// Largest absolute value of a function's bands in `bands`.
@@ -301,14 +325,45 @@ pub fn arriving_all(
     keys.into_iter().zip(vals).collect()
 }
 
-/// Values `max(|ℓ_s|·est·I_r, |Γ_s|·est·R_r)` of the candidates (`arrive`: `None`
-/// when importance is off).
-pub fn values(funcs: &Functions, cands: &[Candidate], arrive: Option<&Arriving>) -> Vec<f64> {
+/// Per function, `[radiance, importance]` magnitude of what refining it as a sender
+/// can reach: the largest `|ℓ_d|·‖b_d‖₁/‖b_s‖₁` over the function itself and its
+/// descendants `d` of the same type (children of a wavelet's node, recursively; the
+/// root `φ` has none). Without it a sender whose own coefficient vanishes by symmetry
+/// — every level-0 angular wavelet of a lobe centred in the direction square — would
+/// never be proposed, and the finer wavelets that carry the lobe never linked.
+#[must_use]
+pub fn reach(funcs: &Functions) -> Vec<[f64; 2]> {
+    let mut out: Vec<[f64; 2]> = funcs
+        .value
+        .iter()
+        .map(|v| [magnitude(v, RADIANCE), magnitude(v, IMPORTANCE)])
+        .collect();
+    let ratio = l1_norm(1);
+    for tree in &funcs.trees {
+        // Children are created after their parents: reverse order sees every child
+        // before its parent passes the maximum on.
+        for n in (1..tree.len()).rev() {
+            let Some(p) = tree.keys[n].parent().and_then(|k| tree.find(&k)) else {
+                continue;
+            };
+            for t in 1..=TYPES {
+                let c = out[tree.id(n as u32, t) as usize];
+                let q = &mut out[tree.id(p, t) as usize];
+                q[0] = q[0].max(ratio * c[0]);
+                q[1] = q[1].max(ratio * c[1]);
+            }
+        }
+    }
+    out
+}
+
+/// Values `max(|ℓ_s|·est·I_r, |Γ_s|·est·R_r)` of the candidates, where `|ℓ_s|` and
+/// `|Γ_s|` are the sender's [`reach`] (`arrive`: `None` when importance is off).
+pub fn values(reach: &[[f64; 2]], cands: &[Candidate], arrive: Option<&Arriving>) -> Vec<f64> {
     cands
         .iter()
         .map(|c| {
-            let v = &funcs.value[c.sender as usize];
-            let l = magnitude(v, RADIANCE);
+            let [l, g] = reach[c.sender as usize];
             match arrive {
                 None => l * c.est,
                 Some(m) => {
@@ -321,7 +376,6 @@ pub fn values(funcs: &Functions, cands: &[Candidate], arrive: Option<&Arriving>)
                         },
                     );
                     let (i, r) = m.get(&key).copied().unwrap_or((0.0, 0.0));
-                    let g = magnitude(v, IMPORTANCE);
                     (l * c.est * i).max(g * c.est * r)
                 }
             }

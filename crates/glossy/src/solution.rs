@@ -375,7 +375,8 @@ impl GlossySolution {
         } else {
             None
         };
-        let vals = refine::values(&self.funcs, &cands, arrive.as_ref());
+        let reach = refine::reach(&self.funcs);
+        let vals = refine::values(&reach, &cands, arrive.as_ref());
         let max = vals.iter().copied().fold(0.0, f64::max);
         rs.max_value = max;
         if !crate::positive(max) {
