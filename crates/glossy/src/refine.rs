@@ -16,7 +16,10 @@
 //! alone) — and `I_r = ∫_{supp r} Γ(z, −ω) cos θ dA dω`, the importance arriving at
 //! the receiving support from the point `z` that `y` sees along `ω` (the paper's
 //! "integral of GΓ"), estimated with stratified rays (plus the transparent eye's own
-//! `Γ_e`, integrated over its small solid angle); `R_r` is its radiance twin. With
+//! `Γ_e`, integrated over its small solid angle, and — ours — a named importance
+//! patch's own `Γ_e`, so that the patch's own radiance counts as watched, which §7.1
+//! observes: importance emitted by a receiving patch refines the interactions at that
+//! patch); `R_r` is its radiance twin. With
 //! importance off, `I ≡ R ≡ 1`. Ours, where the paper is silent: `|ℓ_s|` is the
 //! sender's *reach*, the largest `|ℓ_d|·‖b_d‖₁/‖b_s‖₁` over the sender and its
 //! same-type descendants, so a wavelet whose coefficient vanishes by symmetry (the
@@ -241,6 +244,12 @@ pub fn arriving(
             let wl = dirs.direction(uw);
             let w = frame.to_world(wl);
             let weight = wl.z * dirs.jacobian(uw) * p.support.jacobian(st.x, st.y) * vol;
+            if p.importance {
+                // A named importance patch wants its own radiance right (Glossy §7.1:
+                // "when the receiving patch emits importance … the interactions are
+                // refined more at the receiver"): its `Γ_e = 1` counts as arriving.
+                imp += weight;
+            }
             let ray = Ray {
                 origin: y + n_y * eps,
                 dir: w,

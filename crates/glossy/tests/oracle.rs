@@ -1,7 +1,9 @@
-//! Directional emitters (Glossy §6.3): a cosine-power spotlight decomposed up front
-//! lights small receivers as the point-source closed form says once refinement reaches
-//! the fine emitted wavelets that carry its lobe. (The glossy path tracer agrees with
-//! the same closed form: wavelux-render's `glossy_tracer` tests.)
+//! The refinement oracle (Glossy §5.3) where it is easy to starve: a cosine-power
+//! spotlight decomposed up front (§6.3) lights small receivers as the point-source
+//! closed form says once refinement reaches the fine emitted wavelets that carry its
+//! lobe (the glossy path tracer agrees with the same closed form: wavelux-render's
+//! `glossy_tracer` tests); importance emitted by a patch refines the links into it
+//! (§7.1).
 
 mod common;
 
@@ -124,4 +126,59 @@ fn spotlight_reaches_receivers_through_its_fine_wavelets() {
             "{i}: {e} (projection alone {proj})"
         );
     }
+}
+
+#[test]
+fn importance_emitted_by_a_patch_refines_the_links_into_it() {
+    // Glossy §7.1: without importance, refinement spends every link between patches 1
+    // and 2 (patch 3 keeps its V⁰ link); with importance emitted by patch 3 the
+    // interactions at patch 3 are refined and its radiance gets closer to the
+    // reference L₃ = (ρ₃/π) L₂ G A₂.
+    let scene = common::three_patches(std::f64::consts::PI, 0.0, 0.5, 0.5);
+    let run = |importance: ImportanceSource| {
+        let mut sol = GlossySolution::new(
+            &scene,
+            "three",
+            GlossyConfig {
+                variant: WardVariant::Original,
+                rounds: 3,
+                importance,
+                ..GlossyConfig::default()
+            },
+        )
+        .unwrap();
+        sol.run(|_| {}).unwrap();
+        sol
+    };
+    let none = run(ImportanceSource::Off);
+    let imp = run(ImportanceSource::Surfaces(vec!["patch3".into()]));
+    let into_3 = |s: &GlossySolution| s.links.ranges[2].len();
+    assert_eq!(into_3(&none), 1);
+    assert!(into_3(&imp) > 1, "{}", into_3(&imp));
+    // Patch 3's radiance against the point-patch reference over a grid of its points.
+    let lobe = WardLobe::new(WardVariant::Original, 0.2, 0.2).unwrap();
+    let x1 = DVec3::new(-0.5, 0.0, 1.0);
+    let l2 = |w: DVec3| {
+        let r2 = x1.length_squared();
+        let dir = -x1 / r2.sqrt();
+        0.5 * lobe.eval(-dir, w) * dir.z * dir.z / r2 * 1e-4
+    };
+    let err = |sol: &GlossySolution| {
+        let support = &sol.scene.patches[2].support;
+        let (mut e, mut n) = (0.0, 0.0);
+        for i in 0..8 {
+            for j in 0..8 {
+                let st = DVec2::new((f64::from(i) + 0.5) / 8.0, (f64::from(j) + 0.5) / 8.0);
+                let z = support.point(st.x, st.y);
+                let d = z.length();
+                let w = z / d;
+                let r = 0.5 / std::f64::consts::PI * l2(w) * w.z * w.z / (d * d) * 1e-4;
+                e += (sol.radiance(2, st, -DVec3::Z)[0] - r).powi(2);
+                n += r * r;
+            }
+        }
+        (e / n).sqrt()
+    };
+    let (e_none, e_imp) = (err(&none), err(&imp));
+    assert!(e_imp < 0.97 * e_none, "{e_imp} vs {e_none}");
 }
