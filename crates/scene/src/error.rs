@@ -199,6 +199,15 @@ pub enum WarningKind {
         /// Why, in words.
         reason: String,
     },
+    /// Triangles that welding near-duplicate vertices collapsed (two of their vertices
+    /// within [`crate::group::WELD_REL`] of the mesh's size) were dropped (mesh
+    /// grouping, [`crate::group`]).
+    WeldedTrianglesDropped {
+        /// How many were dropped.
+        count: usize,
+        /// Their total area (square scene units).
+        area: f64,
+    },
     /// A reflectance component `>= 1` or `< 0` was clamped (only under
     /// [`crate::ReflectancePolicy::Clamp`]).
     ReflectanceClamped {
@@ -222,11 +231,12 @@ pub enum WarningKind {
 impl WarningKind {
     /// A short stable tag of the kind (`degenerate-triangles-dropped`,
     /// `reflectance-clamped`, `non-area-primitive-skipped`, `ignored`,
-    /// `grouping-fallback`), for machine-readable reports.
+    /// `grouping-fallback`, `welded-triangles-dropped`), for machine-readable reports.
     pub fn code(&self) -> &'static str {
         match self {
             Self::DegenerateTrianglesDropped { .. } => "degenerate-triangles-dropped",
             Self::GroupingFallback { .. } => "grouping-fallback",
+            Self::WeldedTrianglesDropped { .. } => "welded-triangles-dropped",
             Self::ReflectanceClamped { .. } => "reflectance-clamped",
             Self::NonAreaPrimitiveSkipped { .. } => "non-area-primitive-skipped",
             Self::Ignored { .. } => "ignored",
@@ -255,6 +265,10 @@ impl fmt::Display for Warning {
             WarningKind::GroupingFallback { triangles, reason } => write!(
                 f,
                 "kept {triangles} coplanar triangles as triangles, not one polygon: {reason}"
+            ),
+            WarningKind::WeldedTrianglesDropped { count, area } => write!(
+                f,
+                "dropped {count} triangle(s) of total area {area:e} that welding near-duplicate vertices collapsed"
             ),
             WarningKind::ReflectanceClamped { from, to } => {
                 write!(f, "reflectance {from} clamped to {to}")

@@ -40,7 +40,7 @@ use gltf::mesh::Mode;
 
 use crate::camera::{Camera, Projection};
 use crate::error::{MEMORY_FILE, SceneError, Warning, WarningKind};
-use crate::group::{MeshGrouping, MeshPart, group_mesh};
+use crate::group::{MeshGrouping, MeshPart, group_mesh, reversed_sides};
 use crate::material::{Material, ReflectancePolicy, Rgb, Texture, TextureRef, srgb_to_linear};
 use crate::scene::{MaterialId, Scene, Sidedness, Surface};
 use crate::shape::{Shape, TriangleMesh};
@@ -518,9 +518,15 @@ impl<'a> Loader<'a> {
                 vec![MeshPart {
                     suffix: String::new(),
                     shape: Shape::Mesh(build.mesh),
+                    reversed: false,
                 }]
             };
             for part in parts {
+                let (material, sides) = if part.reversed {
+                    reversed_sides(&mut self.scene, material, sides)
+                } else {
+                    (material, sides)
+                };
                 self.scene.add_surface(Surface {
                     name: format!("{name}{}", part.suffix),
                     shape: part.shape,

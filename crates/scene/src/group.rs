@@ -30,11 +30,15 @@
 //! mesh's facets would only multiply surfaces). A group that simplifies to a triangle
 //! or an exact parallelogram becomes that shape.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 
 use glam::{DVec2, DVec3};
 
+use crate::analytic::{AnalyticPatch, AnalyticSurface, Placement};
 use crate::error::{SceneError, WarningKind};
+use crate::fit::{SphereFit, fit_sphere};
+use crate::material::{Material, Rgb};
+use crate::scene::{MaterialId, Scene, Sidedness};
 use crate::shape::{Loop, MERGE_REL, PlaneFrame, PolygonShape, Shape, TriangleMesh};
 
 /// Coplanarity tolerance relative to the mesh's bounding-box diagonal: a triangle joins
@@ -43,6 +47,12 @@ use crate::shape::{Loop, MERGE_REL, PlaneFrame, PolygonShape, Shape, TriangleMes
 /// relative to a group's own diagonal, bounds the removal of collinear boundary
 /// vertices.
 pub const COPLANAR_REL: f64 = 1e-6;
+
+/// Weld tolerance relative to the mesh's bounding-box diagonal: a vertex within
+/// `WELD_REL × diagonal` of an earlier vertex is the same vertex (near-duplicates at
+/// seams, written by exporters that round positions separately per face). `1e-6`, as
+/// [`COPLANAR_REL`]: about 16 `f32` ulps of the mesh's size.
+pub const WELD_REL: f64 = 1e-6;
 
 /// Smallest group that becomes its own polygon surface.
 pub const MIN_GROUP_TRIANGLES: usize = 3;
@@ -66,8 +76,35 @@ pub struct MeshPart {
     /// Appended to the mesh's name: `""` when the mesh became one surface, else
     /// `.face{k}` for the `k`-th polygon and `.rest` for the triangles left over.
     pub suffix: String,
-    /// The shape: a polygon, a triangle, a parallelogram, or the left-over mesh.
+    /// The shape: a sphere, a polygon, a triangle, a parallelogram, or the left-over
+    /// mesh.
     pub shape: Shape,
+    /// The shape's front side is the mesh's back side: a sphere fitted to a mesh that
+    /// faces inwards (an analytic surface's front side is always its outside). Give the
+    /// part its sides with [`reversed_sides`].
+    pub reversed: bool,
+}
+
+/// The front material and sidedness of a [`MeshPart::reversed`] part of a mesh whose
+/// front material is `material` with `sides`: the sides swap; a one-sided mesh's
+/// black back becomes a black front (a material with zero reflectance and emission,
+/// found in or added to `scene`).
+pub fn reversed_sides(
+    scene: &mut Scene,
+    material: MaterialId,
+    sides: Sidedness,
+) -> (MaterialId, Sidedness) {
+    let front = match sides {
+        Sidedness::TwoSided { back } => back,
+        _ => scene
+            .materials
+            .iter()
+            .position(|m| *m == Material::lambertian(m.name.clone(), Rgb::BLACK, Rgb::BLACK))
+            .unwrap_or_else(|| {
+                scene.add_material(Material::lambertian("black", Rgb::BLACK, Rgb::BLACK))
+            }),
+    };
+    (front, Sidedness::TwoSided { back: material })
 }
 
 /// The surfaces of one grouped mesh.
@@ -127,11 +164,11 @@ pub fn group_mesh(mesh: &TriangleMesh, file: &str, element: &str) -> Result<Grou
     }
     let diag = (hi - lo).length();
     let tol = COPLANAR_REL * diag;
-    let weld = weld_exact(p);
+    let ids = weld(p, WELD_REL * diag);
     let tris: Vec<Tri> = input
         .iter()
         .map(|t| {
-            let v = t.map(|i| weld[i as usize]);
+            let v = t.map(|i| ids[i as usize]);
             let c =
                 (p[v[1] as usize] - p[v[0] as usize]).cross(p[v[2] as usize] - p[v[0] as usize]);
             let distinct = v[0] != v[1] && v[1] != v[2] && v[0] != v[2];
@@ -147,7 +184,20 @@ pub fn group_mesh(mesh: &TriangleMesh, file: &str, element: &str) -> Result<Grou
             }
         })
         .collect();
-    let groups = grow_groups(p, &tris, tol);
+    let edges = EdgeMap::new(&tris);
+    // Closed components that tessellate a sphere become that sphere (crate::fit).
+    let mut taken = vec![false; tris.len()];
+    let mut spheres = Vec::new();
+    for comp in closed_components(&tris, &edges) {
+        let welded: Vec<[u32; 3]> = comp.iter().map(|&t| tris[t].v).collect();
+        if let Some(fit) = fit_sphere(p, &welded) {
+            for &t in &comp {
+                taken[t] = true;
+            }
+            spheres.push((comp.len(), fit));
+        }
+    }
+    let groups = grow_groups(p, &tris, &edges, &taken, tol);
     let mut parts = Vec::new();
     let mut warnings = Vec::new();
     let mut rest: Vec<[u32; 3]> = Vec::new();
@@ -171,30 +221,43 @@ pub fn group_mesh(mesh: &TriangleMesh, file: &str, element: &str) -> Result<Grou
             }
         }
     }
-    // Triangles degenerate after welding belong to no group: keep them as they are.
-    let mut in_group = vec![false; tris.len()];
-    for &t in groups.iter().flatten() {
-        in_group[t] = true;
+    // Triangles that welding collapsed (two vertices within the weld tolerance) are
+    // dropped: their area is below `tol` times their longest edge, and their welded
+    // neighbours now meet directly.
+    let (mut welded, mut welded_area) = (0, 0.0);
+    for t in tris.iter().filter(|t| t.n == DVec3::ZERO) {
+        let [a, b, c] = t.orig.map(|i| p[i as usize]);
+        welded += 1;
+        welded_area += 0.5 * (b - a).cross(c - a).length();
     }
-    rest.extend(
-        tris.iter()
-            .zip(&in_group)
-            .filter(|(_, g)| !**g)
-            .map(|(t, _)| t.orig),
-    );
-    let single = parts.len() + usize::from(!rest.is_empty()) == 1;
-    let mut out: Vec<MeshPart> = parts
-        .into_iter()
-        .enumerate()
-        .map(|(k, shape)| MeshPart {
-            suffix: if single {
-                String::new()
-            } else {
-                format!(".face{k}")
-            },
-            shape,
-        })
-        .collect();
+    if welded > 0 {
+        warnings.push(WarningKind::WeldedTrianglesDropped {
+            count: welded,
+            area: welded_area,
+        });
+    }
+    let single = spheres.len() + parts.len() + usize::from(!rest.is_empty()) == 1;
+    let name = |kind: &str, k: usize| {
+        if single {
+            String::new()
+        } else {
+            format!(".{kind}{k}")
+        }
+    };
+    let mut out: Vec<MeshPart> = Vec::new();
+    for (k, (count, fit)) in spheres.into_iter().enumerate() {
+        grouped_triangles += count;
+        out.push(MeshPart {
+            suffix: name("sphere", k),
+            shape: sphere_shape(fit),
+            reversed: fit.inward,
+        });
+    }
+    out.extend(parts.into_iter().enumerate().map(|(k, shape)| MeshPart {
+        suffix: name("face", k),
+        shape,
+        reversed: false,
+    }));
     if !rest.is_empty() {
         rest.sort_unstable();
         let built = TriangleMesh::build(p.clone(), mesh.uv_sets.clone(), &rest, file, element)?;
@@ -205,6 +268,7 @@ pub fn group_mesh(mesh: &TriangleMesh, file: &str, element: &str) -> Result<Grou
                 ".rest".into()
             },
             shape: Shape::Mesh(built.mesh),
+            reversed: false,
         });
     }
     Ok(Grouped {
@@ -212,6 +276,47 @@ pub fn group_mesh(mesh: &TriangleMesh, file: &str, element: &str) -> Result<Grou
         warnings,
         grouped_triangles,
     })
+}
+
+/// Welded id of every vertex (see [`WELD_REL`]): vertices are visited in index order;
+/// one within `tol` of an earlier representative takes the id of the first such
+/// representative, any other becomes a representative itself. Deterministic, and a
+/// weld never chains: every vertex is within `tol` of its representative.
+fn weld(p: &[DVec3], tol: f64) -> Vec<u32> {
+    if !(tol > 0.0) {
+        return weld_exact(p);
+    }
+    let cell = |q: DVec3| (q / tol).floor().to_array().map(|c| c as i64);
+    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+    let mut ids = Vec::with_capacity(p.len());
+    for (i, &q) in p.iter().enumerate() {
+        let c = cell(q);
+        let mut best: Option<u32> = None;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let key = [
+                        c[0].saturating_add(dx),
+                        c[1].saturating_add(dy),
+                        c[2].saturating_add(dz),
+                    ];
+                    for &r in grid.get(&key).map_or(&[][..], Vec::as_slice) {
+                        if (p[r as usize] - q).length() <= tol && best.is_none_or(|b| r < b) {
+                            best = Some(r);
+                        }
+                    }
+                }
+            }
+        }
+        match best {
+            Some(r) => ids.push(r),
+            None => {
+                grid.entry(c).or_default().push(i as u32);
+                ids.push(i as u32);
+            }
+        }
+    }
+    ids
 }
 
 /// Welded id of every vertex: the smallest index with a bitwise-equal position.
@@ -274,14 +379,19 @@ impl EdgeMap {
 }
 
 /// Region growing (see the module docs); every triangle that is not degenerate after
-/// welding ends in exactly one group.
-fn grow_groups(p: &[DVec3], tris: &[Tri], tol: f64) -> Vec<Vec<usize>> {
-    let edges = EdgeMap::new(tris);
+/// welding and not `taken` (by a fitted sphere) ends in exactly one group.
+fn grow_groups(
+    p: &[DVec3],
+    tris: &[Tri],
+    edges: &EdgeMap,
+    taken: &[bool],
+    tol: f64,
+) -> Vec<Vec<usize>> {
     let mut order: Vec<usize> = (0..tris.len())
-        .filter(|&t| tris[t].n != DVec3::ZERO)
+        .filter(|&t| tris[t].n != DVec3::ZERO && !taken[t])
         .collect();
     order.sort_by(|&a, &b| tris[b].area.total_cmp(&tris[a].area).then(a.cmp(&b)));
-    let mut assigned = vec![false; tris.len()];
+    let mut assigned = taken.to_vec();
     let mut groups = Vec::new();
     for seed in order {
         if assigned[seed] {
@@ -313,6 +423,61 @@ fn grow_groups(p: &[DVec3], tris: &[Tri], tol: f64) -> Vec<Vec<usize>> {
         groups.push(group);
     }
     groups
+}
+
+/// The closed components of the welded triangles: maximal sets connected across
+/// manifold, consistently oriented edges in which every edge is such an edge (no
+/// boundary), each sorted.
+fn closed_components(tris: &[Tri], edges: &EdgeMap) -> Vec<Vec<usize>> {
+    let mut seen = vec![false; tris.len()];
+    let mut out = Vec::new();
+    for start in 0..tris.len() {
+        if seen[start] || tris[start].n == DVec3::ZERO {
+            continue;
+        }
+        seen[start] = true;
+        let mut comp = vec![start];
+        let mut closed = true;
+        let mut k = 0;
+        while k < comp.len() {
+            let t = comp[k];
+            k += 1;
+            for e in 0..3 {
+                let (a, b) = (tris[t].v[e], tris[t].v[(e + 1) % 3]);
+                match edges.neighbour(t, a, b) {
+                    Some(u) if !seen[u] => {
+                        seen[u] = true;
+                        comp.push(u);
+                    }
+                    Some(_) => {}
+                    None => closed = false,
+                }
+            }
+        }
+        if closed {
+            comp.sort_unstable();
+            out.push(comp);
+        }
+    }
+    out
+}
+
+/// The whole sphere of a fit: an analytic patch, front side outwards (see
+/// [`MeshPart::reversed`]).
+fn sphere_shape(fit: SphereFit) -> Shape {
+    Shape::Patch(AnalyticPatch {
+        surface: AnalyticSurface::Sphere {
+            placement: Placement {
+                origin: fit.centre,
+                axis: DVec3::Z,
+                reference: DVec3::X,
+            },
+            radius: fit.radius,
+            azimuth: (0.0, std::f64::consts::TAU),
+            latitude: (-std::f64::consts::FRAC_PI_2, std::f64::consts::FRAC_PI_2),
+        },
+        trim: None,
+    })
 }
 
 /// The boundary of a set of triangles: directed edges with net multiplicity ±1 (by

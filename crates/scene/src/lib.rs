@@ -8,7 +8,8 @@
 //!   merging, complex polygons with arcs and holes (VirtualMesh §3.2), Bézier patches;
 //! - [`light`]: punctual point and spot lights (glTF `KHR_lights_punctual` falloff);
 //! - [`group`]: mesh grouping — connected coplanar triangles become the complex
-//!   polygons they tile, so a meshed wall, disk or floor with holes is one surface;
+//!   polygons they tile, so a meshed wall, disk or floor with holes is one surface,
+//!   and closed meshes that tessellate a sphere become that sphere ([`fit`]);
 //! - [`medium`]: voxel grids of opacity (grey), source and albedo (RGB) (GlobalCube
 //!   §2.1, §3.1), raw `f32` grid files;
 //! - [`gltf_load`]: glTF 2.0 (`.gltf`, `.glb`) loader; [`gltf_write`]: the GLB writer
@@ -49,6 +50,7 @@ pub mod analytic;
 pub mod builtin;
 pub mod camera;
 pub mod error;
+pub mod fit;
 pub mod fixtures;
 pub mod gltf_load;
 pub mod gltf_medium;
@@ -73,7 +75,7 @@ pub use camera::{Camera, Projection};
 pub use error::{SceneError, Warning, WarningKind};
 pub use gltf_load::{GltfOptions, load_gltf, load_gltf_slice};
 pub use gltf_write::{to_glb, write_glb};
-pub use group::{Grouped, MeshGrouping, MeshPart, group_mesh};
+pub use group::{Grouped, MeshGrouping, MeshPart, group_mesh, reversed_sides};
 pub use light::{Light, LightKind};
 pub use material::{
     EmissionProfile, Material, ReflectancePolicy, Rgb, Texture, TextureRef, WardParams,

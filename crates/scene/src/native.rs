@@ -18,7 +18,7 @@ use crate::analytic::{AnalyticPatch, AnalyticSurface, Placement, Region};
 use crate::camera::Camera;
 use crate::error::{MEMORY_FILE, SceneError, Warning, WarningKind};
 use crate::gltf_load::{GltfOptions, load_gltf};
-use crate::group::{MeshGrouping, MeshPart, group_mesh};
+use crate::group::{MeshGrouping, MeshPart, group_mesh, reversed_sides};
 use crate::material::{EmissionProfile, Material, ReflectancePolicy, Rgb, WardParams};
 use crate::medium::Medium;
 use crate::scene::{DefaultValue, Scene, Sidedness, Surface};
@@ -854,6 +854,7 @@ fn parse_inner(
             shape => vec![MeshPart {
                 suffix: String::new(),
                 shape,
+                reversed: false,
             }],
         };
         for part in parts {
@@ -868,6 +869,11 @@ fn parse_inner(
             if let Some(t) = tangent {
                 scene.tangents.insert(name.clone(), t);
             }
+            let (material, sides) = if part.reversed {
+                reversed_sides(&mut scene, material, sides)
+            } else {
+                (material, sides)
+            };
             scene.surfaces.push(Surface {
                 name,
                 shape: part.shape,

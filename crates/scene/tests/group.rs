@@ -9,8 +9,9 @@ use std::f64::consts::TAU;
 use glam::{DMat4, DVec3};
 use proptest::prelude::*;
 use wavelux_scene::{
-    GltfOptions, MeshGrouping, Scene, Shape, Sidedness, Surface, TessellateOptions, TriangleMesh,
-    WarningKind, fixtures, group_mesh, load_gltf_slice, tessellated, to_glb,
+    AnalyticSurface, GltfOptions, MeshGrouping, Rgb, Scene, Shape, Sidedness, Surface,
+    TessellateOptions, TriangleMesh, WarningKind, fixtures, group_mesh, load_gltf_slice,
+    tessellated, to_glb,
 };
 
 fn mesh(positions: Vec<DVec3>, tris: &[[u32; 3]]) -> TriangleMesh {
@@ -106,15 +107,189 @@ fn cornell_faces_group_into_floor_and_ceiling_with_holes() {
 }
 
 #[test]
-fn curved_meshes_stay_triangles() {
+fn a_closed_sphere_mesh_becomes_the_sphere_with_its_inside_as_front() {
     let scene = fixtures::closed_sphere(1.0, 72, 36, 0.5, 1.0).unwrap();
     let s = roundtrip(&scene, MeshGrouping::Surfaces);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     assert_eq!(s.surfaces.len(), 1);
-    let Shape::Mesh(m) = &s.surfaces[0].shape else {
-        panic!("expected the sphere to stay a mesh")
+    let surf = &s.surfaces[0];
+    assert_eq!(surf.name, "sphere");
+    let Shape::Patch(p) = &surf.shape else {
+        panic!("expected the sphere, got {:?}", surf.shape)
+    };
+    let AnalyticSurface::Sphere {
+        placement, radius, ..
+    } = p.surface
+    else {
+        panic!("expected a sphere, got {:?}", p.surface)
+    };
+    // f32 positions: centre and radius within 1e-6.
+    assert!((radius - 1.0).abs() < 1e-6, "{radius}");
+    assert!(placement.origin.length() < 1e-6, "{}", placement.origin);
+    assert!((surf.shape.area() - 2.0 * TAU).abs() < 1e-5);
+    // The mesh faced inwards: its material is the sphere's back (inside), the front
+    // (outside) is black, as a one-sided mesh's back was.
+    let furnace = s.material_id("furnace").unwrap();
+    assert_eq!(surf.sides, Sidedness::TwoSided { back: furnace });
+    let front = &s.materials[surf.material];
+    assert_eq!(front.reflectance, Rgb::BLACK);
+    assert_eq!(front.emission, Rgb::BLACK);
+    // The old behaviour stays available: the facets.
+    let t = roundtrip(&scene, MeshGrouping::Triangles);
+    let Shape::Mesh(m) = &t.surfaces[0].shape else {
+        panic!("expected the facets")
     };
     assert_eq!(m.triangle_count(), 5040);
-    assert!(s.warnings.is_empty());
+}
+
+/// A UV sphere's mesh scaled, rotated and moved.
+fn sphere_mesh(lon: u32, lat: u32, inward: bool, scale: f64, offset: DVec3) -> TriangleMesh {
+    let (p, t) = fixtures::uv_sphere(1.0, lon, lat, inward);
+    let m = DMat4::from_translation(offset)
+        * DMat4::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), 0.4)
+        * DMat4::from_scale(DVec3::splat(scale));
+    mesh(p.into_iter().map(|x| m.transform_point3(x)).collect(), &t)
+}
+
+fn fitted_sphere(g: &wavelux_scene::Grouped) -> Option<(DVec3, f64, bool)> {
+    let [part] = &g.parts[..] else { return None };
+    let Shape::Patch(p) = &part.shape else {
+        return None;
+    };
+    let AnalyticSurface::Sphere {
+        placement, radius, ..
+    } = p.surface
+    else {
+        return None;
+    };
+    Some((placement.origin, radius, part.reversed))
+}
+
+#[test]
+fn sphere_fits_are_scale_invariant_from_1e_minus_4_to_1e4() {
+    for e in -4..=4 {
+        let s = 10f64.powi(e);
+        let offset = DVec3::new(3.0, -1.0, 2.0) * s;
+        for (lon, lat) in [(72, 36), (24, 12)] {
+            for inward in [false, true] {
+                let g = group_mesh(&sphere_mesh(lon, lat, inward, s, offset), "t", "m").unwrap();
+                assert!(g.warnings.is_empty(), "scale {s}: {:?}", g.warnings);
+                let (c, r, reversed) = fitted_sphere(&g)
+                    .unwrap_or_else(|| panic!("scale {s}, {lon}×{lat}: not a sphere"));
+                assert!((r - s).abs() < 1e-9 * s, "scale {s}: radius {r}");
+                assert!((c - offset).length() < 1e-9 * s, "scale {s}: centre {c}");
+                assert_eq!(reversed, inward);
+                assert_eq!(g.grouped_triangles, 2 * lon as usize * (lat as usize - 1));
+            }
+        }
+    }
+}
+
+#[test]
+fn coarse_open_or_squashed_spheres_stay_facets() {
+    // Too coarse to be meant as a sphere (facets 22° across): an 8 × 4 UV sphere.
+    let g = group_mesh(&sphere_mesh(8, 4, false, 1.0, DVec3::ZERO), "t", "m").unwrap();
+    assert!(fitted_sphere(&g).is_none());
+    let area: f64 = g.parts.iter().map(|p| p.shape.area()).sum();
+    assert!((area - Shape::Mesh(sphere_mesh(8, 4, false, 1.0, DVec3::ZERO)).area()).abs() < 1e-12);
+    // Open: the northern cap without its fan.
+    let (p, t) = fixtures::uv_sphere(1.0, 72, 36, false);
+    let open: Vec<[u32; 3]> = t.into_iter().filter(|t| !t.contains(&0)).collect();
+    let g = group_mesh(&mesh(p.clone(), &open), "t", "m").unwrap();
+    assert!(g.parts.iter().all(|x| !matches!(x.shape, Shape::Patch(_))));
+    // A spheroid 1e-4 off a sphere: vertices beyond the 1e-5 tolerance.
+    let squashed: Vec<DVec3> = p.iter().map(|q| q * DVec3::new(1.0, 1.0, 1.0001)).collect();
+    let (_, t) = fixtures::uv_sphere(1.0, 72, 36, false);
+    let g = group_mesh(&mesh(squashed, &t), "t", "m").unwrap();
+    assert!(g.parts.iter().all(|x| !matches!(x.shape, Shape::Patch(_))));
+    // Two separate spheres in one mesh: two closed components, two spheres.
+    let mut p2 = p.clone();
+    p2.extend(p.iter().map(|q| *q + DVec3::new(5.0, 0.0, 0.0)));
+    let mut t2 = t.clone();
+    let n = p.len() as u32;
+    t2.extend(t.iter().map(|x| x.map(|i| i + n)));
+    let g = group_mesh(&mesh(p2, &t2), "t", "m").unwrap();
+    let names: Vec<&str> = g.parts.iter().map(|x| x.suffix.as_str()).collect();
+    assert_eq!(names, [".sphere0", ".sphere1"]);
+}
+
+/// A `nx × ny` grid of unit quads in the plane `z = 0` with every quad's four vertices
+/// its own copies, each moved by up to `jitter` (deterministically), then scaled and
+/// moved.
+fn jittered_grid(nx: u32, ny: u32, jitter: f64, scale: f64, offset: DVec3) -> TriangleMesh {
+    let mut positions = Vec::new();
+    let mut tris = Vec::new();
+    let mut k = 0u32;
+    for j in 0..ny {
+        for i in 0..nx {
+            let base = positions.len() as u32;
+            for (x, y) in [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)] {
+                k += 1;
+                // A fixed pseudo-random direction per copy.
+                let a = f64::from(k) * 2.399_963;
+                let d = DVec3::new(a.cos(), a.sin(), (0.7 * a).sin()) * jitter;
+                let on_border = x == 0 || y == 0 || x == nx || y == ny;
+                let d = if on_border { DVec3::ZERO } else { d };
+                positions.push(offset + scale * (DVec3::new(f64::from(x), f64::from(y), 0.0) + d));
+            }
+            tris.push([base, base + 1, base + 2]);
+            tris.push([base, base + 2, base + 3]);
+        }
+    }
+    mesh(positions, &tris)
+}
+
+#[test]
+fn near_duplicate_vertices_are_welded_at_every_scale() {
+    for e in -4..=4 {
+        let s = 10f64.powi(e);
+        let offset = DVec3::new(-2.0, 7.0, 1.0) * s;
+        // Copies 1e-8 of the mesh size apart (f32 rounding of separately computed
+        // positions) are the same vertex: one rectangle.
+        let g = group_mesh(&jittered_grid(4, 3, 5e-8, s, offset), "t", "m").unwrap();
+        assert!(g.warnings.is_empty(), "scale {s}: {:?}", g.warnings);
+        match &g.parts[..] {
+            [part] => match &part.shape {
+                Shape::Parallelogram { edge_u, edge_v, .. } => {
+                    let a = edge_u.cross(*edge_v).length();
+                    assert!((a - 12.0 * s * s).abs() < 1e-9 * s * s, "scale {s}: {a}");
+                }
+                other => panic!("scale {s}: expected the rectangle, got {other:?}"),
+            },
+            parts => panic!("scale {s}: {} parts", parts.len()),
+        }
+        // Copies 1e-4 apart are different vertices: nothing connects, every quad stays
+        // its own pair of triangles.
+        let g = group_mesh(&jittered_grid(4, 3, 1e-4, s, offset), "t", "m").unwrap();
+        assert_eq!(g.grouped_triangles, 0, "scale {s}");
+    }
+}
+
+#[test]
+fn triangles_that_welding_collapses_are_dropped_with_a_warning() {
+    // A fan square with a sliver between two fan triangles: its far vertex is 1e-8
+    // (of the size) from a square corner, so welding collapses it.
+    let v = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+    let positions = vec![
+        v(0.0, 0.0),
+        v(2.0, 0.0),
+        v(2.0, 2.0),
+        v(0.0, 2.0),
+        v(1.0, 1.0),
+        v(2.0, 1e-8),
+    ];
+    let tris = [[0, 1, 4], [5, 2, 4], [1, 5, 4], [2, 3, 4], [3, 0, 4]];
+    let g = group_mesh(&mesh(positions, &tris), "t", "m").unwrap();
+    assert!(
+        matches!(
+            &g.warnings[..],
+            [WarningKind::WeldedTrianglesDropped { count: 1, area }] if *area < 1e-8
+        ),
+        "{:?}",
+        g.warnings
+    );
+    assert_eq!(g.parts.len(), 1);
+    assert!((g.parts[0].shape.area() - 4.0).abs() < 1e-7);
 }
 
 /// A square `[0,2]²` as a fan around its centre, one fan triangle split at the
