@@ -355,10 +355,20 @@ impl Solution {
     /// # Panics
     /// If `surface` is out of range.
     pub fn surface_average(&self, surface: usize) -> [f64; 3] {
+        self.side_average(surface, false)
+    }
+
+    /// [`Solution::surface_average`] of the front (`back = false`) or the back side
+    /// (NaN for the back of a one-sided surface, which has no patches).
+    ///
+    /// # Panics
+    /// If `surface` is out of range.
+    pub fn side_average(&self, surface: usize, back: bool) -> [f64; 3] {
+        let want = if back { Side::Back } else { Side::Front };
         let mut acc = [0.0; 3];
         let mut area = 0.0;
         for &p in &self.by_surface[surface] {
-            if self.patches[p].side != Side::Front {
+            if self.patches[p].side != want {
                 continue;
             }
             let sup = &self.patches[p].support;

@@ -120,6 +120,11 @@ pub struct MethodInfo {
     pub seed: u64,
 }
 
+/// `"front"`: [`SurfaceResult::side`] of reports written before it existed.
+fn front_side() -> String {
+    "front".into()
+}
+
 /// One surface.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SurfaceResult {
@@ -127,11 +132,16 @@ pub struct SurfaceResult {
     pub name: String,
     /// Area of one side (scene units²).
     pub area: f64,
-    /// Emitted exitance E of the front side (W/m²).
+    /// The side reported: `"front"`, or `"back"` for a two-sided surface whose front
+    /// neither reflects nor emits and whose back does (an inward surface written as a
+    /// black front, e.g. a sphere fitted to a mesh facing its centre).
+    #[serde(default = "front_side")]
+    pub side: String,
+    /// Emitted exitance E of the reported side (W/m²).
     pub emission: [f64; 3],
-    /// Diffuse reflectance ρ of the front side.
+    /// Diffuse reflectance ρ of the reported side.
     pub reflectance: [f64; 3],
-    /// Area-averaged exitant radiosity B of the front side (W/m², same units as E).
+    /// Area-averaged exitant radiosity B of the reported side (W/m², same units as E).
     pub radiosity: [f64; 3],
     /// Standard error of `radiosity` (Monte Carlo reference only, else null).
     pub std_error: Option<[f64; 3]>,

@@ -910,6 +910,57 @@ fn loader_warnings_reach_stderr_and_json_and_strict_fails() -> Result<()> {
     Ok(())
 }
 
+/// A closed UV sphere of 24 × 12 (528 triangles) facing inwards, written as glTF, is
+/// recognised as a sphere: one support, the furnace answer `B = E/(1 − ρ) = 2` on its
+/// lit (inner, back) side, reported as such, also by the path tracer.
+#[test]
+fn a_closed_sphere_mesh_solves_as_a_sphere_furnace() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    let scene = wavelux::scene::fixtures::closed_sphere(1.0, 24, 12, 0.5, 1.0)?;
+    wavelux::scene::write_glb(&scene, d.join("sphere.glb"))?;
+    let base = [
+        "solve",
+        "sphere.glb",
+        "--no-image",
+        "--threads",
+        "2",
+        "--quiet",
+    ];
+    let mut args = base.to_vec();
+    args.extend_from_slice(&["--samples", "0", "--json", "g.json"]);
+    ok(&args, d)?;
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(d.join("g.json"))?)?;
+    assert_eq!(v["warnings"].as_array().map(Vec::len), Some(0));
+    let s = &v["surfaces"][0];
+    assert_eq!(s["name"], "sphere");
+    assert_eq!(s["side"], "back");
+    assert_eq!(s["reflectance"][0], 0.5);
+    let b = radiosity(&v, "sphere");
+    assert!(b.iter().all(|x| (x - 2.0).abs() < 1e-4), "{b:?}");
+    assert!(v["statistics"]["leaves"].as_u64().unwrap_or(0) <= 2 * 16);
+    // The path tracer reports the same side: its average is 2 (every path of a
+    // furnace carries exactly E/(1 − ρ)), within its standard error.
+    let mut args = base.to_vec();
+    args.extend_from_slice(&[
+        "--method",
+        "reference",
+        "--samples",
+        "200",
+        "--json",
+        "r.json",
+    ]);
+    ok(&args, d)?;
+    let r: Value = serde_json::from_str(&std::fs::read_to_string(d.join("r.json"))?)?;
+    assert_eq!(r["surfaces"][0]["side"], "back");
+    let mean = radiosity(&r, "sphere");
+    let se = r["surfaces"][0]["std_error"][0]
+        .as_f64()
+        .unwrap_or(f64::NAN);
+    assert!((mean[0] - 2.0).abs() <= 4.0 * se + 0.05, "{mean:?} ± {se}");
+    Ok(())
+}
+
 /// A scene whose materials, lights and media the gathering solver does not model: a
 /// Ward lobe, a directional emitter, a point light, a participating medium. Each is a warning naming the
 /// material (and its surfaces) or the medium and the feature; the path-traced check

@@ -19,7 +19,7 @@ pub fn estimate_error(
     let pt = PathTracer::new(scene)
         .map_err(|e| format!("the path tracer cannot trace the scene: {e}"))?;
     compare(surfaces, samples, |i| {
-        pt.surface_average(i, samples, opts)
+        pt.side_average(i, surfaces[i].side == "back", samples, opts)
             .map_err(|e| e.to_string())
     })
 }

@@ -250,7 +250,7 @@ impl Method for Glossy {
         let surfaces: Vec<report::SurfaceResult> = (0..scene.surfaces.len())
             .map(|i| {
                 let m = sol.side_exitance(i, Side::Front).unwrap_or([0.0; 3]);
-                surface_result(scene, i, m, None)
+                surface_result(scene, i, false, m, None)
             })
             .collect();
         let tracer = GlossyTracer::new(&sol.scene);

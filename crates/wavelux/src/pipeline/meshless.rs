@@ -119,7 +119,7 @@ impl Method for Meshless {
         let surfaces: Vec<report::SurfaceResult> = averages
             .iter()
             .enumerate()
-            .map(|(i, b)| surface_result(scene, i, *b, None))
+            .map(|(i, b)| surface_result(scene, i, false, *b, None))
             .collect();
         let mut check = Err("--samples 0".to_string());
         let mut warned = Vec::new();

@@ -246,17 +246,20 @@ fn base_info(a: &SolveArgs, threads: usize) -> report::MethodInfo {
     }
 }
 
-/// The result of surface `i` with its front-side material (texture means applied).
+/// The result of one side of surface `i` (`back`; see [`reported_back`]) with that
+/// side's material (texture means applied).
 fn surface_result(
     scene: &Scene,
     i: usize,
+    back: bool,
     radiosity: [f64; 3],
     std_error: Option<[f64; 3]>,
 ) -> report::SurfaceResult {
-    let (reflectance, emission) = front_material(scene, i);
+    let (reflectance, emission) = side_material(scene, i, back);
     report::SurfaceResult {
         name: scene.surfaces[i].name.clone(),
         area: scene.surfaces[i].shape.area(),
+        side: if back { "back" } else { "front" }.into(),
         emission,
         reflectance,
         radiosity,
@@ -264,10 +267,27 @@ fn surface_result(
     }
 }
 
-/// Front-side reflectance and emission of a surface (texture means applied).
-fn front_material(scene: &Scene, i: usize) -> ([f64; 3], [f64; 3]) {
-    let m = &scene.materials[scene.surfaces[i].material];
-    let (rho, e) = m.diffuse_means(&scene.textures);
+/// Whether surface `i` is reported by its back side: two-sided, with a front that
+/// neither reflects nor emits and a back that does. This is how the scene model writes
+/// a surface lit from its inside (analytic surfaces face outwards; a mesh sphere facing
+/// its centre loads as a black front and its material on the back).
+pub(crate) fn reported_back(scene: &Scene, i: usize) -> bool {
+    let s = &scene.surfaces[i];
+    let lit = |(rho, e): ([f64; 3], [f64; 3])| rho.iter().chain(&e).any(|&v| v > 0.0);
+    matches!(s.sides, wavelux::scene::Sidedness::TwoSided { .. })
+        && !lit(side_material(scene, i, false))
+        && lit(side_material(scene, i, true))
+}
+
+/// Reflectance and emission of one side of a surface (texture means applied; the back
+/// of a one-sided surface is black).
+fn side_material(scene: &Scene, i: usize, back: bool) -> ([f64; 3], [f64; 3]) {
+    let id = match (back, scene.surfaces[i].sides) {
+        (false, _) => scene.surfaces[i].material,
+        (true, wavelux::scene::Sidedness::TwoSided { back }) => back,
+        (true, _) => return ([0.0; 3], [0.0; 3]),
+    };
+    let (rho, e) = scene.materials[id].diffuse_means(&scene.textures);
     (rho.0, e.0)
 }
 

@@ -6,7 +6,7 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use wavelux::render::PathTracer;
 
-use super::{Job, Method, Outcome, secs, surface_result};
+use super::{Job, Method, Outcome, reported_back, secs, surface_result};
 use crate::cli::SolveArgs;
 use crate::progress;
 use crate::report;
@@ -41,10 +41,17 @@ impl Method for Reference {
         );
         let mut surfaces = Vec::with_capacity(scene.surfaces.len());
         for i in 0..scene.surfaces.len() {
+            let back = reported_back(scene, i);
             let est = pt
-                .surface_average(i, a.samples, &job.reference)
+                .side_average(i, back, a.samples, &job.reference)
                 .with_context(|| format!("surface {:?}", scene.surfaces[i].name))?;
-            surfaces.push(surface_result(scene, i, est.mean, Some(est.std_error)));
+            surfaces.push(surface_result(
+                scene,
+                i,
+                back,
+                est.mean,
+                Some(est.std_error),
+            ));
             pb.inc(1);
         }
         pb.finish_and_clear();

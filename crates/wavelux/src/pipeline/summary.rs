@@ -60,9 +60,14 @@ pub fn print_summary(r: &report::Result, method: &dyn Method, has_solution: bool
     );
     println!("  surfaces    name: radiosity W/m² (R, G, B)");
     for s in r.surfaces.iter().take(12) {
+        let name = if s.side == "back" {
+            format!("{} (back)", s.name)
+        } else {
+            s.name.clone()
+        };
         println!(
             "    {:<28} {:>10.4} {:>10.4} {:>10.4}",
-            s.name, s.radiosity[0], s.radiosity[1], s.radiosity[2]
+            name, s.radiosity[0], s.radiosity[1], s.radiosity[2]
         );
     }
     if r.surfaces.len() > 12 {

@@ -8,7 +8,7 @@ use std::time::Instant;
 use wavelux::render::{RenderOptions, SolutionField};
 use wavelux::solver::{BasisKind, Solution, Visibility};
 
-use super::{Job, Outcome, error_check, secs, surface_result, warnings};
+use super::{Job, Outcome, error_check, reported_back, secs, surface_result, warnings};
 use crate::cli::{BasisArg, VisibilityArg};
 use crate::progress;
 use crate::report;
@@ -42,7 +42,10 @@ pub fn finish(
     record_statistics(&sol, stats);
     let scene = job.scene;
     let surfaces: Vec<report::SurfaceResult> = (0..scene.surfaces.len())
-        .map(|i| surface_result(scene, i, sol.surface_average(i), None))
+        .map(|i| {
+            let back = reported_back(scene, i);
+            surface_result(scene, i, back, sol.side_average(i, back), None)
+        })
         .collect();
     let mut check = Err("--samples 0".to_string());
     let mut warned = Vec::new();
