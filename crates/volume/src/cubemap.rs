@@ -72,7 +72,12 @@ impl CubeMap {
                     let (u0, u1, v0, v1) = (edge(i), edge(i + 1), edge(j), edge(j + 1));
                     let solid_angle =
                         corner(u1, v1) - corner(u0, v1) - corner(u1, v0) + corner(u0, v0);
-                    let (u, v) = (0.5 * (u0 + u1), 0.5 * (v0 + v1));
+                    // Pixel centres as `(2i + 1 − N)/N`: exact zero on the axes of odd
+                    // sides (the midpoint of the rounded edges is ±1e-17 there, and such a
+                    // stray component decides which voxel column a ray along a voxel
+                    // plane runs in, by rounding).
+                    let centre = |i: usize| (2.0 * i as f64 + 1.0 - n as f64) / n as f64;
+                    let (u, v) = (centre(i), centre(j));
                     let r = (1.0 + u * u + v * v).sqrt();
                     let mut dir = [0.0; 3];
                     dir[axis] = sign / r;
