@@ -10,6 +10,11 @@
 //!   block-sparse matrix–vector products in power-of-two-scaled f32 with compensated
 //!   (TwoSum) sums in a fixed order, within `1e-6·(|A||x|)ᵢ + 1e-30·max|A|·max|x|` of
 //!   the f64 reference ([`mod@matvec`]).
+//! - [`GpuProjector`]: [`wavelux_volume::Projector`] — the global cube's projection
+//!   (GlobalCube §3.1–3.2) as a compute pass: the CPU projector's exact
+//!   one-ray-per-pixel projection in f32, within 1e-5 of it where the projection is
+//!   continuous in the ray; rays through cell edges are discussed in
+//!   [`mod@projector`].
 //!
 //! [`Gpu`] selects the adapter (`WGPU_ADAPTER_NAME` substring, else discrete >
 //! integrated > virtual > cpu, e.g. Mesa lavapipe), requests the adapter's own
@@ -25,10 +30,12 @@
 pub mod device;
 pub mod matvec;
 pub mod occlusion;
+pub mod projector;
 
 pub use device::{AdapterSummary, Gpu, adapters};
 pub use matvec::GpuMatVec;
 pub use occlusion::GpuOcclusion;
+pub use projector::GpuProjector;
 
 /// Errors of the GPU backend.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -95,5 +102,15 @@ impl From<GpuError> for wavelux_linear::LinearError {
     fn from(e: GpuError) -> Self {
         let (device, message) = e.parts();
         wavelux_linear::LinearError::Backend { device, message }
+    }
+}
+
+impl From<GpuError> for wavelux_volume::VolumeError {
+    fn from(e: GpuError) -> Self {
+        let (device, message) = e.parts();
+        wavelux_volume::VolumeError::Backend {
+            backend: format!("gpu ({device})"),
+            reason: message,
+        }
     }
 }
