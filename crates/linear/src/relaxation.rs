@@ -105,7 +105,7 @@
 //! (default `n`, one sweep); convergence is tested at records on the maintained
 //! residual. Work counts one column per update, plus one row for Shao, Gortler and Xu.
 
-use crate::error::LinearError;
+use crate::error::{LinearError, Unsupported};
 use crate::history::{Method, Solve, SolverOptions, StopReason};
 use crate::operator::Operator;
 use crate::util::{Recorder, check_inputs, fixed_point_residual_norm, norm};
@@ -259,17 +259,63 @@ fn argmax_abs(v: impl Iterator<Item = f64>) -> usize {
     best
 }
 
-fn relax<K: Operator + ?Sized>(
-    k: &K,
-    b: &[f64],
-    rule: Rule,
-    method: Method,
-    progressive: bool,
-    opts: &SolverOptions,
-) -> Result<ProgressiveSolve, LinearError> {
-    let n = k.dim();
-    check_inputs(b, n, opts)?;
-    let unsupported = |source| LinearError::Unsupported { method, source };
+/// The area weights `A` (default 1), `|S| = Σ A_l`, reflectances `ρ` and their area
+/// mean `ρ̄` of a relaxation (module docs), and what is derived from them.
+struct Weights<'a> {
+    areas: Vec<f64>,
+    total_area: f64,
+    rho: Option<&'a [f64]>,
+    rho_bar: Option<f64>,
+}
+
+impl<'a> Weights<'a> {
+    fn new(opts: &'a SolverOptions, n: usize) -> Self {
+        let areas: Vec<f64> = opts.areas.clone().unwrap_or_else(|| vec![1.0; n]);
+        let total_area: f64 = areas.iter().sum();
+        let rho = opts.reflectance.as_deref();
+        let rho_bar = rho.map(|rho| {
+            rho.iter().zip(&areas).map(|(r, a)| r * a).sum::<f64>()
+                / total_area.max(f64::MIN_POSITIVE)
+        });
+        Self {
+            areas,
+            total_area,
+            rho,
+            rho_bar,
+        }
+    }
+
+    /// `A_k |r_k|`-style weighted values `A_k r_k`.
+    fn weighted<'r>(&'r self, r: &'r [f64]) -> impl Iterator<Item = f64> + 'r {
+        r.iter().zip(&self.areas).map(|(ri, a)| ri * a)
+    }
+
+    /// `u = Σ_l A_l r_l / |S|`.
+    fn mean(&self, r: &[f64]) -> f64 {
+        self.weighted(r).sum::<f64>() / self.total_area
+    }
+
+    /// The ambient value `u / (1 − ρ̄)` (needs reflectances).
+    fn ambient(&self, r: &[f64]) -> Option<f64> {
+        self.rho_bar.map(|rb| self.mean(r) / (1.0 - rb))
+    }
+
+    /// The display solution `x̂ + ρ · ambient` (needs reflectances).
+    fn displayed(&self, xh: &[f64], amb: Option<f64>) -> Option<Vec<f64>> {
+        match (self.rho, amb) {
+            (Some(rho), Some(amb)) => Some(xh.iter().zip(rho).map(|(v, p)| v + p * amb).collect()),
+            _ => None,
+        }
+    }
+}
+
+/// Maps an operator's missing capability to the error naming `method`.
+fn unsupported(method: Method) -> impl Fn(Unsupported) -> LinearError {
+    move |source| LinearError::Unsupported { method, source }
+}
+
+/// Rejects a rule whose inputs are missing (Feda and Xu need reflectances).
+fn check_rule(rule: Rule, method: Method, opts: &SolverOptions) -> Result<(), LinearError> {
     let needs_rho = matches!(
         rule,
         Rule::Over(OverrelaxationKind::Feda | OverrelaxationKind::Xu)
@@ -280,20 +326,193 @@ fn relax<K: Operator + ?Sized>(
             what: "reflectances (SolverOptions::reflectance)",
         });
     }
-    let needs_row = matches!(
-        rule,
-        Rule::Over(OverrelaxationKind::Shao | OverrelaxationKind::Gortler | OverrelaxationKind::Xu)
-    );
-    let areas: Vec<f64> = opts.areas.clone().unwrap_or_else(|| vec![1.0; n]);
-    let total_area: f64 = areas.iter().sum();
-    let rho = opts.reflectance.as_deref();
-    let rho_bar = rho.map(|rho| {
-        rho.iter().zip(&areas).map(|(r, a)| r * a).sum::<f64>() / total_area.max(f64::MIN_POSITIVE)
-    });
+    Ok(())
+}
 
+/// The state of one run of Ziegler's generic update (Alg. 2.3.3): iterate, maintained
+/// residual, the fetched column (and row) of `K`, and the bookkeeping of the
+/// selection rules and safeguards (module docs).
+struct Relaxation<'a, K: ?Sized> {
+    k: &'a K,
+    rule: Rule,
+    method: Method,
+    w: Weights<'a>,
+    needs_row: bool,
+    x: Vec<f64>,
+    r: Vec<f64>,
+    col: Vec<(usize, f64)>,
+    row: Vec<(usize, f64)>,
+    scratch: Vec<f64>,
+    next_cyclic: usize,
+    /// Table 2.1 methods never update the same index twice in a row (module docs).
+    last: Option<usize>,
+    safeguarded: u64,
+}
+
+impl<K: Operator + ?Sized> Relaxation<'_, K> {
+    /// The index to update (the rule's selection column of the module docs).
+    fn choose(&mut self) -> usize {
+        let (r, w) = (&self.r, &self.w);
+        match self.rule {
+            Rule::Cyclic { .. } => {
+                let i = self.next_cyclic;
+                self.next_cyclic = (self.next_cyclic + 1) % r.len();
+                i
+            }
+            Rule::Greedy => argmax_abs(w.weighted(r)),
+            Rule::Over(OverrelaxationKind::Shao | OverrelaxationKind::Gortler) => {
+                argmax_abs_except(w.weighted(r), self.last)
+            }
+            Rule::Over(OverrelaxationKind::Feda | OverrelaxationKind::Xu) => {
+                let rho = w.rho.expect("checked by check_rule");
+                let rb = w.rho_bar.expect("checked by check_rule");
+                let c: f64 = r.iter().zip(&w.areas).map(|(ri, a)| a * ri).sum::<f64>()
+                    / w.total_area
+                    / (1.0 - rb);
+                argmax_abs_except(
+                    (0..r.len()).map(|k| w.areas[k] * (r[k] + rho[k] * c)),
+                    self.last,
+                )
+            }
+        }
+    }
+
+    /// Fetches column `i` (and row `i` where the rule needs it) of `K` and returns
+    /// `K_ii` and the rule's step `Δ` (module docs).
+    fn step(&mut self, i: usize, rec: &mut Recorder<'_>) -> Result<(f64, f64), LinearError> {
+        self.k
+            .column(i, &mut self.col)
+            .map_err(unsupported(self.method))?;
+        rec.work.columns += 1;
+        if self.needs_row {
+            self.k
+                .row(i, &mut self.row)
+                .map_err(unsupported(self.method))?;
+            rec.work.rows += 1;
+        }
+        let (r, w) = (&self.r, &self.w);
+        let kii: f64 = self
+            .col
+            .iter()
+            .filter(|(j, _)| *j == i)
+            .map(|(_, v)| *v)
+            .sum();
+        let row_dot_r = || self.row.iter().map(|(l, v)| v * r[*l]).sum::<f64>();
+        let delta = match self.rule {
+            Rule::Cyclic { omega } => omega * r[i] / (1.0 - kii),
+            Rule::Greedy => r[i] / (1.0 - kii),
+            Rule::Over(OverrelaxationKind::Shao) => r[i] + row_dot_r(),
+            Rule::Over(OverrelaxationKind::Gortler) => {
+                for &(l, v) in &self.col {
+                    self.scratch[l] = v;
+                }
+                let mut num = r[i];
+                let mut back = 0.0;
+                for &(l, v) in &self.row {
+                    if l != i {
+                        num += v * r[l];
+                        back += v * self.scratch[l];
+                    }
+                }
+                for &(l, _) in &self.col {
+                    self.scratch[l] = 0.0;
+                }
+                num / (1.0 - back)
+            }
+            Rule::Over(kind @ (OverrelaxationKind::Feda | OverrelaxationKind::Xu)) => {
+                let rho = w.rho.expect("checked by check_rule");
+                let rb = w.rho_bar.expect("checked by check_rule");
+                let u = w.mean(r);
+                if kind == OverrelaxationKind::Feda {
+                    r[i] + rho[i] / (1.0 - rb) * u
+                } else {
+                    r[i] + row_dot_r() + rb / (1.0 - rb) * rho[i] * u
+                }
+            }
+        };
+        Ok((kii, delta))
+    }
+
+    /// Safeguard (module docs): a Table 2.1 step whose effective relaxation factor
+    /// `Δ m_ii / r_i` is below 1/2 (or that moves an index with zero residual) is
+    /// replaced by a plain Southwell update at the largest weighted residual. Returns
+    /// the index and step to apply (the column of that index is in `self.col`).
+    fn safeguard(
+        &mut self,
+        i: usize,
+        kii: f64,
+        delta: f64,
+        rec: &mut Recorder<'_>,
+    ) -> Result<(usize, f64), LinearError> {
+        if !matches!(self.rule, Rule::Over(_)) {
+            return Ok((i, delta));
+        }
+        let plain = self.r[i] / (1.0 - kii);
+        let factor_ok = if plain != 0.0 {
+            delta / plain >= MIN_FACTOR
+        } else {
+            delta == 0.0
+        };
+        if factor_ok {
+            return Ok((i, delta));
+        }
+        self.safeguarded += 1;
+        let j = argmax_abs(self.w.weighted(&self.r));
+        if j != i {
+            self.k
+                .column(j, &mut self.col)
+                .map_err(unsupported(self.method))?;
+            rec.work.columns += 1;
+        }
+        let kjj: f64 = self
+            .col
+            .iter()
+            .filter(|(l, _)| *l == j)
+            .map(|(_, v)| *v)
+            .sum();
+        Ok((j, self.r[j] / (1.0 - kjj)))
+    }
+
+    /// `x_i += Δ`, `r_j += K_ji Δ`, `r_i −= Δ`.
+    fn apply(&mut self, i: usize, delta: f64) {
+        self.last = Some(i);
+        self.x[i] += delta;
+        for &(j, v) in &self.col {
+            self.r[j] += v * delta;
+        }
+        self.r[i] -= delta;
+    }
+
+    /// One update (choose, step, safeguard, apply).
+    fn update(&mut self, rec: &mut Recorder<'_>) -> Result<(), LinearError> {
+        let i = self.choose();
+        let (kii, delta) = self.step(i, rec)?;
+        let (i, delta) = self.safeguard(i, kii, delta, rec)?;
+        if !delta.is_finite() {
+            return Err(LinearError::NonFiniteIterate {
+                method: self.method,
+                iteration: rec.next_iteration(),
+            });
+        }
+        self.apply(i, delta);
+        Ok(())
+    }
+}
+
+fn relax<K: Operator + ?Sized>(
+    k: &K,
+    b: &[f64],
+    rule: Rule,
+    method: Method,
+    progressive: bool,
+    opts: &SolverOptions,
+) -> Result<ProgressiveSolve, LinearError> {
+    let n = k.dim();
+    check_inputs(b, n, opts)?;
+    check_rule(rule, method, opts)?;
     let mut rec = Recorder::new(method, b, opts);
     let mut r = b.to_vec();
-    let mut x = match &opts.initial_guess {
+    let x = match &opts.initial_guess {
         Some(x0) => {
             let mut kx = vec![0.0; n];
             k.apply(x0, &mut kx);
@@ -305,40 +524,40 @@ fn relax<K: Operator + ?Sized>(
         }
         None => vec![0.0; n],
     };
+    let mut run = Relaxation {
+        k,
+        rule,
+        method,
+        w: Weights::new(opts, n),
+        needs_row: matches!(
+            rule,
+            Rule::Over(
+                OverrelaxationKind::Shao | OverrelaxationKind::Gortler | OverrelaxationKind::Xu
+            )
+        ),
+        x,
+        r,
+        col: Vec::new(),
+        row: Vec::new(),
+        scratch: vec![0.0; n],
+        next_cyclic: 0,
+        last: None,
+        safeguarded: 0,
+    };
     let per_record = opts.updates_per_record.unwrap_or(n.max(1));
-    let mut col: Vec<(usize, f64)> = Vec::new();
-    let mut row: Vec<(usize, f64)> = Vec::new();
-    let mut scratch = vec![0.0; n];
     let mut displayed_errors = Vec::new();
-    let mut next_cyclic = 0usize;
-    let mut safeguarded = 0u64;
-    // Table 2.1 methods never update the same index twice in a row (see docs).
-    let mut last: Option<usize> = None;
-
     let x_hat =
         |x: &[f64], r: &[f64]| -> Vec<f64> { x.iter().zip(r).map(|(a, b)| a + b).collect() };
-    let ambient_of = |r: &[f64]| -> Option<f64> {
-        rho_bar.map(|rb| {
-            let u: f64 = r.iter().zip(&areas).map(|(ri, a)| ri * a).sum::<f64>() / total_area;
-            u / (1.0 - rb)
-        })
-    };
-    let displayed_of = |xh: &[f64], amb: Option<f64>| -> Option<Vec<f64>> {
-        match (rho, amb) {
-            (Some(rho), Some(amb)) => Some(xh.iter().zip(rho).map(|(v, p)| v + p * amb).collect()),
-            _ => None,
-        }
-    };
 
     let reason = 'outer: loop {
         // Record the current state.
         let converged = if progressive {
-            let xh = x_hat(&x, &r);
-            let d = displayed_of(&xh, ambient_of(&r));
+            let xh = x_hat(&run.x, &run.r);
+            let d = run.w.displayed(&xh, run.w.ambient(&run.r));
             displayed_errors.push(d.as_deref().and_then(|d| rec.error_of(d)));
-            rec.record(norm(&r), Some(&xh))?
+            rec.record(norm(&run.r), Some(&xh))?
         } else {
-            rec.record(norm(&r), Some(&x))?
+            rec.record(norm(&run.r), Some(&run.x))?
         };
         if converged {
             break StopReason::Converged;
@@ -350,134 +569,25 @@ fn relax<K: Operator + ?Sized>(
             if n == 0 {
                 break 'outer StopReason::Converged;
             }
-            // Choose i.
-            let i = match rule {
-                Rule::Cyclic { .. } => {
-                    let i = next_cyclic;
-                    next_cyclic = (next_cyclic + 1) % n;
-                    i
-                }
-                Rule::Greedy => argmax_abs(r.iter().zip(&areas).map(|(ri, a)| ri * a)),
-                Rule::Over(OverrelaxationKind::Shao | OverrelaxationKind::Gortler) => {
-                    argmax_abs_except(r.iter().zip(&areas).map(|(ri, a)| ri * a), last)
-                }
-                Rule::Over(OverrelaxationKind::Feda | OverrelaxationKind::Xu) => {
-                    let rho = rho.expect("checked above");
-                    let rb = rho_bar.expect("checked above");
-                    let c: f64 = r.iter().zip(&areas).map(|(ri, a)| a * ri).sum::<f64>()
-                        / total_area
-                        / (1.0 - rb);
-                    argmax_abs_except((0..n).map(|k| areas[k] * (r[k] + rho[k] * c)), last)
-                }
-            };
-            k.column(i, &mut col).map_err(unsupported)?;
-            rec.work.columns += 1;
-            if needs_row {
-                k.row(i, &mut row).map_err(unsupported)?;
-                rec.work.rows += 1;
-            }
-            let kii: f64 = col.iter().filter(|(j, _)| *j == i).map(|(_, v)| *v).sum();
-            let row_dot_r = || row.iter().map(|(l, v)| v * r[*l]).sum::<f64>();
-            let delta = match rule {
-                Rule::Cyclic { omega } => omega * r[i] / (1.0 - kii),
-                Rule::Greedy => r[i] / (1.0 - kii),
-                Rule::Over(OverrelaxationKind::Shao) => r[i] + row_dot_r(),
-                Rule::Over(OverrelaxationKind::Gortler) => {
-                    for &(l, v) in &col {
-                        scratch[l] = v;
-                    }
-                    let mut num = r[i];
-                    let mut back = 0.0;
-                    for &(l, v) in &row {
-                        if l != i {
-                            num += v * r[l];
-                            back += v * scratch[l];
-                        }
-                    }
-                    for &(l, _) in &col {
-                        scratch[l] = 0.0;
-                    }
-                    num / (1.0 - back)
-                }
-                Rule::Over(kind @ (OverrelaxationKind::Feda | OverrelaxationKind::Xu)) => {
-                    let rho = rho.expect("checked above");
-                    let rb = rho_bar.expect("checked above");
-                    let u: f64 =
-                        r.iter().zip(&areas).map(|(ri, a)| ri * a).sum::<f64>() / total_area;
-                    if kind == OverrelaxationKind::Feda {
-                        r[i] + rho[i] / (1.0 - rb) * u
-                    } else {
-                        r[i] + row_dot_r() + rb / (1.0 - rb) * rho[i] * u
-                    }
-                }
-            };
-            // Safeguard (see module docs): a Table 2.1 step whose effective
-            // relaxation factor is below 1/2 is replaced by the plain step.
-            // Safeguard (see module docs): a Table 2.1 step whose effective
-            // relaxation factor Δ m_ii / r_i is below 1/2 (or that moves an index
-            // with zero residual) is replaced by a plain Southwell update at the
-            // largest weighted residual.
-            let (i, delta) = if matches!(rule, Rule::Over(_)) {
-                let plain = r[i] / (1.0 - kii);
-                let factor_ok = if plain != 0.0 {
-                    delta / plain >= MIN_FACTOR
-                } else {
-                    delta == 0.0
-                };
-                if factor_ok {
-                    (i, delta)
-                } else {
-                    safeguarded += 1;
-                    let j = argmax_abs(r.iter().zip(&areas).map(|(rj, a)| rj * a));
-                    if j != i {
-                        k.column(j, &mut col).map_err(unsupported)?;
-                        rec.work.columns += 1;
-                    }
-                    let kjj: f64 = col.iter().filter(|(l, _)| *l == j).map(|(_, v)| *v).sum();
-                    (j, r[j] / (1.0 - kjj))
-                }
-            } else {
-                (i, delta)
-            };
-            if !delta.is_finite() {
-                return Err(LinearError::NonFiniteIterate {
-                    method,
-                    iteration: rec.next_iteration(),
-                });
-            }
-            last = Some(i);
-            x[i] += delta;
-            for &(j, v) in &col {
-                r[j] += v * delta;
-            }
-            r[i] -= delta;
+            run.update(&mut rec)?;
         }
     };
 
-    let ambient = ambient_of(&r);
-    if progressive {
-        let xh = x_hat(&x, &r);
-        let displayed = displayed_of(&xh, ambient);
-        let fin = fixed_point_residual_norm(k, b, &xh);
-        let mut solve = rec.finish(xh, reason, fin);
-        solve.history.safeguarded_updates = safeguarded;
-        Ok(ProgressiveSolve {
-            solve,
-            unshot: r,
-            ambient,
-            displayed,
-            displayed_errors,
-        })
+    let (ambient, displayed, x) = if progressive {
+        let ambient = run.w.ambient(&run.r);
+        let xh = x_hat(&run.x, &run.r);
+        (ambient, run.w.displayed(&xh, ambient), xh)
     } else {
-        let fin = fixed_point_residual_norm(k, b, &x);
-        let mut solve = rec.finish(x, reason, fin);
-        solve.history.safeguarded_updates = safeguarded;
-        Ok(ProgressiveSolve {
-            solve,
-            unshot: r,
-            ambient: None,
-            displayed: None,
-            displayed_errors,
-        })
-    }
+        (None, None, std::mem::take(&mut run.x))
+    };
+    let fin = fixed_point_residual_norm(k, b, &x);
+    let mut solve = rec.finish(x, reason, fin);
+    solve.history.safeguarded_updates = run.safeguarded;
+    Ok(ProgressiveSolve {
+        solve,
+        unshot: run.r,
+        ambient,
+        displayed,
+        displayed_errors,
+    })
 }
