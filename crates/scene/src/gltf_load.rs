@@ -19,7 +19,9 @@
 //!   (× `emissiveTexture`) is an emitted radiance `L`, stored as exitance
 //!   `E = π L`; `doubleSided` gives [`Sidedness::TwoSided`] with the same material on
 //!   both sides, else [`Sidedness::OneSided`]; metallic/roughness, normal and
-//!   occlusion maps have no meaning for Lambertian radiosity and are ignored;
+//!   occlusion maps have no meaning for Lambertian radiosity and are ignored; a Ward
+//!   lobe for glossy transport from `extras.ward` (exact) or `KHR_materials_specular`
+//!   (+ `_anisotropy`, `_ior`; approximate), see [`crate::gltf_ward`];
 //! - cameras (perspective and orthographic) with their node's world transform;
 //! - `KHR_lights_punctual` point and spot lights at their node's world position and
 //!   `−z` axis, `color × intensity` read as W/sr (see [`crate::light`]); directional
@@ -61,7 +63,13 @@ pub struct GltfOptions {
 }
 
 /// Supported `extensionsRequired` entries.
-const SUPPORTED_REQUIRED: &[&str] = &["KHR_materials_emissive_strength", "KHR_lights_punctual"];
+const SUPPORTED_REQUIRED: &[&str] = &[
+    "KHR_materials_emissive_strength",
+    "KHR_lights_punctual",
+    "KHR_materials_specular",
+    "KHR_materials_anisotropy",
+    "KHR_materials_ior",
+];
 
 /// Loads a `.gltf` or `.glb` file; external buffers and images are resolved relative
 /// to the file's directory.
@@ -760,7 +768,19 @@ impl<'a> Loader<'a> {
                 });
             }
         }
+        let mut ignored = Vec::new();
+        let ward = crate::gltf_ward::ward_of(m, self.file, &element, &mut |k| ignored.push(k))?;
+        for k in ignored {
+            self.warn(element.clone(), k);
+        }
+        if let Some(w) = &ward {
+            refl = refl.map(|v| v * w.diffuse_scale);
+        }
         let mut material = Material::lambertian(name, Rgb(refl), emission);
+        if let Some(w) = ward {
+            material.ward = Some(w.ward);
+            material.validate(self.file)?;
+        }
         if let Some(info) = pbr.base_color_texture() {
             material.reflectance_texture =
                 self.texture(&info, true, Rgb(refl), uv_sets, &element)?;

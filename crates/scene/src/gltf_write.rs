@@ -10,10 +10,11 @@
 //! `L = E/π` as `emissiveFactor × KHR_materials_emissive_strength` (strength = the
 //! largest channel of `L`, so the factor stays in `[0, 1]`); two-sided surfaces whose
 //! back material is the front one are `doubleSided`. Perspective cameras are written
-//! with their world transform.
+//! with their world transform. A Ward lobe is written exactly as `extras.ward`
+//! ([`crate::gltf_ward`] reads it back).
 //!
 //! What glTF cannot say is an error ([`SceneError::Unsupported`] naming the surface or
-//! material), never dropped silently: a different back material, textures, Ward lobes,
+//! material), never dropped silently: a different back material, textures,
 //! directional emitters, media, punctual lights.
 
 use std::path::Path;
@@ -133,9 +134,6 @@ pub fn to_glb(scene: &Scene, file: &str) -> Result<Vec<u8>, SceneError> {
         if mat.reflectance_texture.is_some() || mat.emission_texture.is_some() {
             return Err(unsupported(file, mat_element, "textures"));
         }
-        if mat.ward.is_some() {
-            return Err(unsupported(file, mat_element, "Ward lobe"));
-        }
         if !matches!(mat.emission_profile, EmissionProfile::Lambertian) {
             return Err(unsupported(file, mat_element, "directional emitter"));
         }
@@ -164,6 +162,11 @@ pub fn to_glb(scene: &Scene, file: &str) -> Result<Vec<u8>, SceneError> {
                         json!({"KHR_materials_emissive_strength": {"emissiveStrength": strength}});
                 } else if strength > 0.0 {
                     m["emissiveFactor"] = json!(l.0);
+                }
+                if let Some(w) = &mat.ward {
+                    // Exact, read back by `crate::gltf_ward`.
+                    m["extras"] = json!({"ward": {"specular": w.specular.0,
+                                                  "alpha_x": w.alpha_x, "alpha_y": w.alpha_y}});
                 }
                 materials.push(m);
                 material_index[s.material] = Some((key, materials.len() - 1));

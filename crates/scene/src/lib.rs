@@ -54,6 +54,7 @@ pub mod fit;
 pub mod fixtures;
 pub mod gltf_load;
 pub mod gltf_medium;
+pub mod gltf_ward;
 pub mod gltf_write;
 pub mod group;
 pub mod light;
