@@ -8,6 +8,12 @@
 //!   one product, `cpu` the f64 reference, `gpu` the device; throughput in stored
 //!   entries.
 //!
+//! - `cube/64^3_rR` (R = 16, 32, 64): the global cube's projection of 64 receivers in a
+//!   64³ grid of thin random medium (optical depth 0.005–0.05 per voxel, so rays cross
+//!   the grid), `cpu` the CPU projector (exact sampling, no supersampling: the same
+//!   work) on all rayon threads, `gpu` [`wavelux::gpu::GpuProjector`] end to end
+//!   (upload of grid and emission, kernel, read-back); throughput in receiver faces.
+//!
 //! Without an adapter the GPU rows print `SKIPPED: no wgpu adapter` and only the CPU
 //! rows run. On a software adapter (Mesa lavapipe) the ratios say nothing about GPU
 //! speed; docs/performance.md records which adapter produced a number.
@@ -20,8 +26,12 @@ use rand_pcg::Pcg64;
 use std::hint::black_box;
 use wavelux::geometry::backend::OcclusionBackend;
 use wavelux::geometry::{Accel, OcclusionQuery, Primitive, Triangle};
-use wavelux::gpu::{Gpu, GpuMatVec, GpuOcclusion};
+use wavelux::gpu::{Gpu, GpuMatVec, GpuOcclusion, GpuProjector};
 use wavelux::linear::backend::{Bsr, CpuMatVec, MatVecBackend, Matrix};
+use wavelux::volume::TraversalCell;
+use wavelux::volume::backend::cpu::{AntiAlias, CpuProjector, Projection};
+use wavelux::volume::backend::{Emission, FaceRgb, ProjectionScene, Projector, Receiver};
+use wavelux::volume::cell::{Collision, total_weight};
 
 fn gpu() -> Option<std::sync::Arc<Gpu>> {
     match Gpu::new() {
@@ -141,5 +151,82 @@ fn matvec(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, occlusion, matvec);
+fn cube(c: &mut Criterion) {
+    let mut r = Pcg64::seed_from_u64(3);
+    let side = 64usize;
+    let n3 = side * side * side;
+    let cells: Vec<TraversalCell> = (0..n3)
+        .map(|i| {
+            let k = r.random_range(0.005..0.05);
+            TraversalCell {
+                origin: [
+                    (i % side) as u32,
+                    ((i / side) % side) as u32,
+                    (i / (side * side)) as u32,
+                ],
+                size: 1,
+                extinction: k,
+                total_weight: total_weight(k, Collision::Exact),
+            }
+        })
+        .collect();
+    let map: Vec<u32> = (0..n3 as u32).collect();
+    let coefficients: Vec<FaceRgb> = (0..n3)
+        .map(|_| [[r.random_range(0.0..1.0), 0.5, 0.25]; 6])
+        .collect();
+    let power = vec![[0.0; 3]; n3];
+    let scene = ProjectionScene {
+        side,
+        voxel: 1.0 / side as f64,
+        cells: &cells,
+        cell_map: &map,
+    };
+    let emission = Emission {
+        coefficients: &coefficients,
+        power: &power,
+    };
+    let cpu = CpuProjector::new(Projection::Exact, AntiAlias::OFF);
+    let dev = gpu().map(GpuProjector::new);
+    for fb in [16u32, 32, 64] {
+        let receivers: Vec<Receiver> = (0..64)
+            .map(|_| Receiver {
+                cell: r.random_range(0..n3 as u32),
+                framebuffer: fb,
+            })
+            .collect();
+        let mut out = vec![[[0.0; 3]; 6]; receivers.len()];
+        let mut g = c.benchmark_group(format!("cube/64^3_r{fb}"));
+        g.sample_size(10);
+        g.throughput(Throughput::Elements(6 * receivers.len() as u64));
+        g.bench_function("cpu", |b| {
+            b.iter(|| {
+                cpu.gather(
+                    &scene,
+                    &emission,
+                    Collision::Exact,
+                    black_box(&receivers),
+                    &mut out,
+                )
+                .expect("cpu")
+            })
+        });
+        if let Some(p) = &dev {
+            g.bench_function("gpu", |b| {
+                b.iter(|| {
+                    p.gather(
+                        &scene,
+                        &emission,
+                        Collision::Exact,
+                        black_box(&receivers),
+                        &mut out,
+                    )
+                    .expect("gpu")
+                })
+            });
+        }
+        g.finish();
+    }
+}
+
+criterion_group!(benches, occlusion, matvec, cube);
 criterion_main!(benches);
