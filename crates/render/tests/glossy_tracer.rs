@@ -213,3 +213,58 @@ fn estimates_do_not_depend_on_the_thread_count() {
     };
     assert_eq!(run(1), run(3));
 }
+
+#[test]
+fn glossy_solver_lights_receivers_under_a_spotlight_like_the_tracer() {
+    // A cosine-power spotlight (exponent 4, side 0.1, height 1) over a diffuse and a
+    // Ward receiver (0.2 wide) beside the lobe's axis. Before the oracle reached the
+    // lobe's fine wavelets the solver left such receivers 68–83 % dark at any depth.
+    let mut s = Scene::new("spot");
+    let mut light = Material::lambertian("light", Rgb::BLACK, Rgb::grey(50.0));
+    light.emission_profile = EmissionProfile::CosinePower { exponent: 4.0 };
+    square(&mut s, "light", DVec3::Z, -DVec3::Z, 0.1, light);
+    square(
+        &mut s,
+        "diffuse",
+        DVec3::new(0.15, 0.0, 0.0),
+        DVec3::Z,
+        0.2,
+        Material::lambertian("recv", Rgb::grey(0.5), Rgb::BLACK),
+    );
+    square(
+        &mut s,
+        "ward",
+        DVec3::new(-0.4, 0.1, 0.0),
+        DVec3::Z,
+        0.2,
+        ward(0.3, 0.4, 0.2, 0.2),
+    );
+    let mut sol = wavelux_glossy::GlossySolution::new(
+        &s,
+        "spot",
+        wavelux_glossy::GlossyConfig {
+            rounds: 5,
+            ..wavelux_glossy::GlossyConfig::default()
+        },
+    )
+    .unwrap();
+    let v0 = [1, 2].map(|k| sol.side_exitance(k, Side::Front).unwrap()[0]);
+    sol.run(|_| {}).unwrap();
+    let tracer = GlossyTracer::new(&sol.scene);
+    for (i, k) in [1, 2].into_iter().enumerate() {
+        let got = sol.side_exitance(k, Side::Front).unwrap()[0];
+        let r = tracer
+            .side_exitance(k, Side::Front, 20_000, &opts(11))
+            .unwrap();
+        let (rel, rel0) = (got / r.mean[0] - 1.0, v0[i] / r.mean[0] - 1.0);
+        // Measured: V⁰ −82 % / −83 %, five rounds −12 % / −19 % (the level-4 lobe
+        // projection and 2 × 2 transport points; tracer noise < 1 %).
+        assert!(rel0 < -0.5, "surface {k}: V⁰ {rel0}");
+        assert!(
+            rel.abs() < 0.25,
+            "surface {k}: {got} vs {} ± {}",
+            r.mean[0],
+            r.std_error[0]
+        );
+    }
+}
