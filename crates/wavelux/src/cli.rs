@@ -340,6 +340,12 @@ pub struct VolumeArgs {
     /// Global cube: projection of the CPU backend.
     #[arg(long, value_enum, default_value_t = ProjectionArg::Exact)]
     pub projection: ProjectionArg,
+    /// Global cube: ray origins per axis of a receiver (1..=8): k³ points of a
+    /// cell, k² points of each face of an opaque cell; 1 is the paper's one point.
+    /// More samples integrate the receiver and tighten energy conservation at k²–k³
+    /// times the projection cost.
+    #[arg(long, default_value_t = 1)]
+    pub receiver_samples: u32,
     /// Global cube: routing Γ (eq. 32): `normalized` (Γ_ii = σ, conserves energy) or
     /// `printed` (Γ_ii = 1 as printed; creates energy).
     #[arg(long, value_enum, default_value_t = GammaArg::Normalized)]

@@ -331,11 +331,17 @@ mod tests {
         for p in [
             CpuProjector::new(Projection::Exact, AntiAlias::OFF),
             CpuProjector::new(Projection::Exact, AntiAlias::default()),
+            CpuProjector::new(Projection::Exact, AntiAlias::OFF).with_receiver_samples(2),
         ] {
             let checks = run(&p, &Tolerances::default()).unwrap();
             for c in &checks {
-                // Supersampling changes the gather, so only the exact-sampling one is
-                // held to bitwise agreement with the plain CPU projector.
+                // Supersampling and receiver samples change the gather, so only the
+                // plain one is held to bitwise agreement with the plain CPU projector.
+                // Receiver samples remove the one-point gather's near-field bias (14 %
+                // on this small scene): every other check holds for them.
+                if c.name == "agrees-with-cpu" && p.receiver_samples > 1 {
+                    continue;
+                }
                 if c.name == "agrees-with-cpu" && p.antialias != AntiAlias::OFF {
                     assert!(c.value < 0.05, "{c:?}");
                     continue;

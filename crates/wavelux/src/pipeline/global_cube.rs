@@ -16,7 +16,7 @@ use wavelux::render::{ToneMap, image::write_bytes_atomic};
 use wavelux::scene::Scene;
 use wavelux::volume::{
     CpuProjector, GammaMode, GlobalCubeConfig, Oracle, Projection, Relaxation, Threshold,
-    VolumeGrid, VolumeSolution,
+    VolumeGrid, VolumeSolution, backend::cpu::MAX_RECEIVER_SAMPLES,
 };
 
 use super::{Job, Method, Outcome, name_of, secs};
@@ -37,13 +37,22 @@ const DEFAULT_THRESHOLD: f64 = 33.0;
 /// The global cube with its configuration.
 struct GlobalCube {
     config: GlobalCubeConfig,
+    /// `--receiver-samples` of the CPU projector.
+    receiver_samples: u32,
 }
 
 /// The global cube's plan: `--levels`, `--framebuffer`, `--threshold[-source|
 /// -opacity|-chi]`, `--oracle`, `--relaxations`, `--tolerance`, `--max-iterations`,
 /// `--solver`, `--projection`, `--gamma`, checked by [`GlobalCubeConfig::validate`].
 pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
-    Ok(Box::new(GlobalCube { config: config(a)? }))
+    let k = a.volume.receiver_samples;
+    if !(1..=MAX_RECEIVER_SAMPLES).contains(&k) {
+        bail!("--receiver-samples {k} outside 1..={MAX_RECEIVER_SAMPLES}");
+    }
+    Ok(Box::new(GlobalCube {
+        config: config(a)?,
+        receiver_samples: k,
+    }))
 }
 
 /// The configuration of the arguments (see [`plan`]).
@@ -162,7 +171,12 @@ impl Method for GlobalCube {
             solver: Some(name_of(c.solver)),
             max_iterations: Some(c.max_iterations),
             tolerance: Some(c.tolerance),
-            global_cube: serde_json::to_value(c).ok(),
+            global_cube: serde_json::to_value(c).ok().map(|mut v| {
+                if let Some(o) = v.as_object_mut() {
+                    o.insert("receiver_samples".into(), self.receiver_samples.into());
+                }
+                v
+            }),
             ..base
         }
     }
@@ -174,7 +188,8 @@ impl Method for GlobalCube {
         stats.time_s.setup = secs(t.elapsed());
 
         let t = Instant::now();
-        let projector = CpuProjector::new(self.config.projection, Default::default());
+        let projector = CpuProjector::new(self.config.projection, Default::default())
+            .with_receiver_samples(self.receiver_samples);
         let sp = progress::spinner(job.show_progress, "global cube");
         let sol = wavelux::volume::solve(&grid, &self.config, &projector, &mut |r| {
             sp.set_message(format!(
