@@ -422,6 +422,60 @@ fn light_on_a_surface_and_black_senders() {
     }
 }
 
+/// Relighting is linear in the lights (Meshless §3.3: `i = S·P†E←`) when no sender is
+/// skipped: frames lit by `A`, by `B` and by both give `i(A ∪ B) = i(A) + i(B)`, and a
+/// light scaled by `k` scales `i` by `k`, to the f32 precision of the runtime product.
+#[test]
+fn relighting_is_linear_in_the_lights_across_frames() {
+    let scene = white_furnace(0.0, 0.7).unwrap();
+    let cfg = MeshlessConfig {
+        gather_rays: 32,
+        bounces: 2,
+        skip: 0.0,
+        ..furnace_config(1e-3)
+    };
+    let pre = Precomputed::build(&scene, &cfg, &quiet).unwrap();
+    let q = SceneSurfaces::new(&scene).unwrap();
+    let rl = Relighter::new(&pre, CpuBackend).unwrap();
+    let a = Light::spot(
+        "a",
+        DVec3::new(0.3, 0.4, 0.8),
+        DVec3::new(0.2, 0.1, -1.0),
+        0.3,
+        0.5,
+        Rgb([1.0, 0.5, 0.25]),
+    );
+    let b = Light::point("b", DVec3::new(0.7, 0.6, 0.3), Rgb([0.2, 0.4, 0.9]));
+    let mut a3 = a.clone();
+    a3.intensity = Rgb(a.intensity.0.map(|v| 3.0 * v));
+    // Frames, as `wavelux relight --path` runs them: one relighter, one frame each.
+    let frames = [vec![a.clone()], vec![b.clone()], vec![a, b], vec![a3]];
+    let out: Vec<Vec<f64>> = frames
+        .iter()
+        .map(|lights| rl.relight(&q, lights).unwrap().coeffs)
+        .collect();
+    let scale = out[2].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(scale > 0.0);
+    for k in 0..out[0].len() {
+        let sum = out[0][k] + out[1][k];
+        assert!(
+            (out[2][k] - sum).abs() <= 1e-5 * scale,
+            "coefficient {k}: i(A+B) {} vs i(A) + i(B) {sum}",
+            out[2][k]
+        );
+        assert!(
+            (out[3][k] - 3.0 * out[0][k]).abs() <= 1e-5 * scale,
+            "coefficient {k}: i(3A) {} vs 3 i(A) {}",
+            out[3][k],
+            3.0 * out[0][k]
+        );
+    }
+    // Both lights light something: the test compares non-trivial frames.
+    for f in &out[..2] {
+        assert!(f.iter().any(|v| v.abs() > 1e-3 * scale));
+    }
+}
+
 fn build_in_pool(threads: usize, scene: &Scene, cfg: &MeshlessConfig) -> Precomputed {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
