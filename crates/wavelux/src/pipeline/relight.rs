@@ -21,6 +21,7 @@ use wavelux::scene::{Light, Rgb, Scene};
 
 use super::{
     check_image_options, load_scene, mesh_grouping, meshless, output, secs, thread_pool, view,
+    warnings,
 };
 use crate::cli::RelightArgs;
 use crate::progress;
@@ -40,6 +41,12 @@ pub fn run(r: &RelightArgs) -> anyhow::Result<()> {
     let threads = thread_pool(a.threads)?;
     check_image_options(a)?;
     let (scene, stem) = load_scene(&a.scene, mesh_grouping(a))?;
+    // The loader's warnings and what the meshless method does not model (Ward lobes,
+    // media, textures), as for `solve`: stderr, JSON, `--strict`.
+    let mut warned = warnings::from_scene(&scene);
+    warned.extend(warnings::unmodelled(&scene, "meshless", &a.scene));
+    warnings::strict(a.strict, &warned)?;
+    warnings::print(&warned);
     let frames = frames(r, &scene)?;
     let config = meshless::config(a)?;
     let view = if a.no_image {
@@ -173,6 +180,7 @@ pub fn run(r: &RelightArgs) -> anyhow::Result<()> {
         "precompute": pre.stats,
         "precompute_s": precompute_s,
         "runtime_bytes": pre.runtime_bytes(),
+        "warnings": warned,
         "frames": out_frames,
         "total_s": secs(t_start.elapsed()),
     });
