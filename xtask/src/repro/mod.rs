@@ -11,6 +11,11 @@ use crate::reproduce::Ctx;
 
 mod glossy_fig13;
 mod glossy_ward;
+mod meshless_common;
+mod meshless_fig3;
+mod meshless_fig7;
+mod meshless_scaling;
+mod meshless_table1;
 mod speed_accuracy;
 mod standard;
 mod transfer_accuracy;
@@ -122,6 +127,34 @@ pub fn all() -> Vec<Reproduction> {
             seed_file: "004_cb5b08859768bf36.txt",
             title: "Transfer accuracy at the geometric extremes: analytic catalogue and white furnaces",
             run: transfer_accuracy::run,
+        },
+        Reproduction {
+            id: "meshless-table1",
+            source: "Meshless §4.2, Table 1",
+            seed_file: "002_d3831e6496376b14.txt",
+            title: "Direct-to-indirect precomputation statistics on the atrium (level 0 tuned to 339)",
+            run: meshless_table1::run,
+        },
+        Reproduction {
+            id: "meshless-fig3",
+            source: "Meshless §2.2, Fig. 3",
+            seed_file: "002_d3831e6496376b14.txt",
+            title: "Hierarchical meshless approximation F_0…F_L refining towards the function",
+            run: meshless_fig3::run,
+        },
+        Reproduction {
+            id: "meshless-fig7",
+            source: "Meshless §4.2, Fig. 7 and frame times",
+            seed_file: "002_d3831e6496376b14.txt",
+            title: "Atrium relit at three spots vs the path tracer; direct, transport and flatten times",
+            run: meshless_fig7::run,
+        },
+        Reproduction {
+            id: "meshless-scaling",
+            source: "Meshless §3.2, §4.2 (Comparisons); issue 15 error target",
+            seed_file: "002_d3831e6496376b14.txt",
+            title: "Links, time and error vs receivers and ε; dense one-level transfer vs hierarchy",
+            run: meshless_scaling::run,
         },
     ]
 }

@@ -1,0 +1,537 @@
+//! Meshless §3.2, §4.2 ("Comparisons"): how the hierarchical direct-to-indirect
+//! precomputation scales on the Cornell box: links and time against receivers, the
+//! error against the points and against `ε`, and a dense one-level transfer against
+//! the hierarchy at equal finest-level points.
+//!
+//! The paper quotes no curve: it states that the hierarchy computes only a small
+//! fraction of the potential links (Table 1: 0.032–0.052 %) and gives "two orders of
+//! magnitude faster precomputation" than the non-hierarchical method of Kristensen et
+//! al. on the Sponza Atrium. Issue 15 registers the expectations checked here: links
+//! and time grow about linearly with the receivers (exponent ≈ 1), the error falls as
+//! `R_coarse` and `ε` shrink, and the indirect error on the Cornell box is at most 5 %
+//! at `ε = 0.005` against the path tracer.
+
+use super::meshless_common::{
+    ViewPoint, at_points, energy_ratio, functions, log_slope, precompute, reference_indirect,
+    relative_l1, scene, scene_direct,
+};
+use crate::plot::{Axis, Series, Style, xy_plot};
+use crate::report::{Figure, Report, Row, Table, Tolerance};
+use crate::reproduce::Ctx;
+use wavelux::meshless::{CpuBackend, MeshlessConfig, Precomputed, Relighter, SceneSurfaces};
+use wavelux::render::PathTracer;
+use wavelux::scene::Scene;
+
+/// Problem sizes of one mode.
+struct Sizes {
+    levels: usize,
+    gather_rays: usize,
+    emitter_samples: usize,
+    points: usize,
+    paths: u64,
+    /// `R_coarse` of the point sweep (m), coarsest first.
+    r_sweep: [f64; 3],
+    /// `R_coarse` of the ε sweep and the error target (m).
+    r_eps: f64,
+    /// Levels and `R_coarse` of the dense-versus-hierarchy comparison.
+    dense_levels: usize,
+    dense_r: f64,
+}
+
+const QUICK: Sizes = Sizes {
+    levels: 3,
+    gather_rays: 64,
+    emitter_samples: 32,
+    points: 400,
+    paths: 2048,
+    r_sweep: [0.192, 0.136, 0.096],
+    r_eps: 0.096,
+    dense_levels: 2,
+    dense_r: 0.136,
+};
+
+/// The "full" run is reduced too (ours): 128 gather rays and R_coarse ≥ 0.068 m (the
+/// default is 0.048 m) keep it to a few minutes on the shared 2-core machine.
+const FULL: Sizes = Sizes {
+    levels: 3,
+    gather_rays: 128,
+    emitter_samples: 64,
+    points: 1000,
+    paths: 4096,
+    r_sweep: [0.136, 0.096, 0.068],
+    r_eps: 0.068,
+    dense_levels: 3,
+    dense_r: 0.136,
+};
+
+/// The ε of the sweep, largest first (issue 15: 0.1 … 0.005).
+const EPS: [f64; 5] = [0.1, 0.05, 0.025, 0.01, 0.005];
+
+/// Bounces of the runs: the path-traced reference has them all, and with the Cornell
+/// box's reflectances the paper's four leave ~6 % of the indirect energy out (the
+/// "4 bounces" ablation row measures it), so the error would measure the series'
+/// truncation rather than the transfer.
+const BOUNCES: usize = 8;
+
+fn config(s: &Sizes, r: f64, eps: f64) -> MeshlessConfig {
+    MeshlessConfig {
+        receiver_levels: s.levels,
+        sender_levels: 2.min(s.levels),
+        r_coarse: Some(r),
+        gather_rays: s.gather_rays,
+        epsilon: eps,
+        bounces: BOUNCES,
+        bounce_epsilon: Some(eps / 100.0),
+        ..MeshlessConfig::default()
+    }
+}
+
+/// One precomputation, relit by the scene's own lighting, measured at the points.
+struct Run {
+    receivers: usize,
+    senders: usize,
+    t_links: usize,
+    s_links: usize,
+    seconds: f64,
+    refine_ms: f64,
+    computed: usize,
+    l1: f64,
+    energy: f64,
+}
+
+fn run_one(
+    scene: &Scene,
+    query: &SceneSurfaces,
+    cfg: &MeshlessConfig,
+    s: &Sizes,
+    points: &[ViewPoint],
+    reference: &[([f64; 3], [f64; 3])],
+) -> anyhow::Result<(Run, Precomputed)> {
+    let (pre, seconds) = precompute(scene, cfg)?;
+    let relighter = Relighter::new(&pre, CpuBackend)?;
+    let ind = relighter.relight_with(query, &scene_direct(scene, query, s.emitter_samples, 1))?;
+    let ours = at_points(&ind, points);
+    let (l1, _) = relative_l1(&ours, reference);
+    let run = Run {
+        receivers: functions(&pre),
+        senders: pre.senders(),
+        t_links: pre.t.nnz(),
+        s_links: pre.s.nnz(),
+        seconds,
+        refine_ms: pre.stats.refine_ms,
+        computed: pre.stats.refine.levels.iter().map(|l| l.computed).sum(),
+        l1,
+        energy: energy_ratio(&ours, reference),
+    };
+    drop(ind);
+    Ok((run, pre))
+}
+
+fn run_row(label: String, r: &Run) -> Vec<String> {
+    vec![
+        label,
+        r.receivers.to_string(),
+        r.senders.to_string(),
+        r.t_links.to_string(),
+        r.s_links.to_string(),
+        format!("{:.2}", r.seconds),
+        format!("{:.2} %", 100.0 * r.l1),
+        format!("{:.3}", r.energy),
+    ]
+}
+
+const RUN_HEADERS: [&str; 8] = [
+    "run",
+    "receivers",
+    "senders",
+    "links T",
+    "links S",
+    "precompute (s)",
+    "indirect rel. L1",
+    "energy ours/ref",
+];
+
+/// Runs the reproduction.
+pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
+    let s = if ctx.quick { &QUICK } else { &FULL };
+    let mut r = Report::default();
+    let scene = scene("cornell-box")?;
+    let query = SceneSurfaces::new(&scene)?;
+    let tracer = PathTracer::new(&scene)?;
+    let points = super::meshless_common::visible_points(&scene, &query, s.points)?;
+    let reference = reference_indirect(&tracer, &points, s.paths, 7)?;
+    let (_, floor) = relative_l1(
+        &reference.iter().map(|(m, _)| *m).collect::<Vec<_>>(),
+        &reference,
+    );
+    r.param(
+        "scene",
+        "builtin:cornell-box (area light; emitters sampled by NEE)",
+    );
+    r.param(
+        "levels",
+        format!(
+            "{} receiver / 2 sender levels, {} gather rays, {} emitter samples per sender, 4 bounces",
+            s.levels, s.gather_rays, s.emitter_samples
+        ),
+    );
+    r.param(
+        "reference",
+        format!(
+            "path-traced indirect irradiance at {} camera points, {} walks each (noise floor {:.2} %)",
+            points.len(),
+            s.paths,
+            100.0 * floor
+        ),
+    );
+    r.paper_did = "Meshless §4.2 precomputes with 6 receiver and 3 sender levels at ε = 0.025 \
+        and reports (Table 1) that only 0.032–0.052 % of the potential sender × receiver \
+        links are computed; against the non-hierarchical method of Kristensen et al. it \
+        claims two orders of magnitude faster precomputation on the Sponza Atrium. It \
+        gives no scaling curve and no error against a reference."
+        .into();
+    r.we_did = format!(
+        "Cornell box (the issue's error target scene), lit by its own area light. Every \
+        run precomputes T and S = Σ_{{b≤8}} S_b (8 bounces, ours: the reference has all \
+        of them; the ablation rows show the paper's 4) with the bounce products \
+        thresholded at ε/100 (ours; the crate's default is ε/10), relights with the light's direct \
+        irradiance at the sender points (NEE), and compares the indirect irradiance n·i \
+        at {} points seen by the camera with the independent path tracer's \
+        indirect-only estimate ({} walks per point; the reference's own noise floor, \
+        {:.2} %, is included in every error). Point sweep: R_coarse ∈ {:?} m at ε = 0.005; \
+        ε sweep at R_coarse = {} m; dense comparison: a one-level basis at the finest \
+        spacing of a {}-level hierarchy, ε = 0 (every link kept), one bounce, against \
+        the hierarchy at ε = 0.005, one bounce. Reduced sizes (levels, gather rays, \
+        points) are ours, for the shared 2-core machine; the quick run is smaller still.",
+        points.len(),
+        s.paths,
+        100.0 * floor,
+        s.r_sweep,
+        s.r_eps,
+        s.dense_levels
+    );
+
+    // Point sweep.
+    let mut sweep = Vec::new();
+    let mut table = Vec::new();
+    for &rc in &s.r_sweep {
+        let (run, _) = run_one(
+            &scene,
+            &query,
+            &config(s, rc, 0.005),
+            s,
+            &points,
+            &reference,
+        )?;
+        table.push(run_row(format!("R_coarse = {rc} m, ε = 0.005"), &run));
+        sweep.push(run);
+    }
+    let links_exp = log_slope(
+        &sweep
+            .iter()
+            .map(|q| (q.receivers as f64, q.s_links as f64))
+            .collect::<Vec<_>>(),
+    );
+    let t_exp = log_slope(
+        &sweep
+            .iter()
+            .map(|q| (q.receivers as f64, q.t_links as f64))
+            .collect::<Vec<_>>(),
+    );
+    let time_exp = log_slope(
+        &sweep
+            .iter()
+            .map(|q| (q.receivers as f64, q.refine_ms))
+            .collect::<Vec<_>>(),
+    );
+    let work_exp = log_slope(
+        &sweep
+            .iter()
+            .map(|q| (q.receivers as f64, q.computed as f64))
+            .collect::<Vec<_>>(),
+    );
+    let err_exp = log_slope(
+        &sweep
+            .iter()
+            .map(|q| (q.receivers as f64, q.l1))
+            .collect::<Vec<_>>(),
+    );
+    r.rows.push(
+        Row::new(
+            "exponent of links in T against receivers (R_coarse sweep, ε = 0.005)",
+            Some(1.0),
+            t_exp,
+            "",
+            Tolerance::Absolute(0.35),
+        )
+        .comment("issue 15: links follow the receivers, not their square"),
+    );
+    r.rows.push(Row::new(
+        "exponent of links in S against receivers",
+        Some(1.0),
+        links_exp,
+        "",
+        Tolerance::Info,
+    ));
+    r.rows.push(
+        Row::new(
+            "exponent of refinement work (links computed) against receivers",
+            Some(1.0),
+            work_exp,
+            "",
+            Tolerance::Absolute(0.35),
+        )
+        .comment("the refinement's cost in links evaluated (deterministic)"),
+    );
+    r.rows.push(
+        Row::new(
+            "exponent of refinement wall time against receivers",
+            Some(1.0),
+            time_exp,
+            "",
+            Tolerance::Info,
+        )
+        .comment(
+            "wall time on the shared machine: the same configuration measured 1.07, 1.27 \
+             and 1.94 in three quick runs of session 21, so it is context, not a gate",
+        ),
+    );
+    r.rows.push(Row::new(
+        "exponent of the indirect error against receivers (slope of the error vs points)",
+        None,
+        err_exp,
+        "",
+        Tolerance::Info,
+    ));
+    r.rows.push(
+        Row::new(
+            "indirect error at the finest / coarsest R_coarse",
+            None,
+            sweep[2].l1 / sweep[0].l1,
+            "",
+            Tolerance::AtMost(1.0),
+        )
+        .comment("the error falls as R_coarse shrinks"),
+    );
+
+    // ε sweep.
+    let mut eps_runs = Vec::new();
+    for &eps in &EPS {
+        let (run, _) = run_one(
+            &scene,
+            &query,
+            &config(s, s.r_eps, eps),
+            s,
+            &points,
+            &reference,
+        )?;
+        table.push(run_row(
+            format!("R_coarse = {} m, ε = {eps}", s.r_eps),
+            &run,
+        ));
+        eps_runs.push(run);
+    }
+    let eps_exp = log_slope(
+        &EPS.iter()
+            .zip(&eps_runs)
+            .map(|(&e, q)| (e, q.l1))
+            .collect::<Vec<_>>(),
+    );
+    r.rows.push(Row::new(
+        "exponent of the indirect error against ε",
+        None,
+        eps_exp,
+        "",
+        Tolerance::Info,
+    ));
+    r.rows.push(
+        Row::new(
+            "indirect error at ε = 0.005 / at ε = 0.1",
+            None,
+            eps_runs[4].l1 / eps_runs[0].l1,
+            "",
+            Tolerance::AtMost(1.0),
+        )
+        .comment("the error falls as ε shrinks"),
+    );
+    r.rows.push(Row::new(
+        "indirect energy kept at ε = 0.025 (ours / reference)",
+        None,
+        eps_runs[2].energy,
+        "",
+        Tolerance::Info,
+    ));
+    let target = Row::new(
+        "indirect relative L1 vs path tracer, Cornell box, ε = 0.005",
+        Some(0.05),
+        eps_runs[4].l1,
+        "",
+        Tolerance::AtMost(0.05),
+    )
+    .comment(format!(
+        "reference noise floor {:.2} %; {} receivers",
+        100.0 * floor,
+        eps_runs[4].receivers
+    ));
+    r.rows.push(if ctx.quick {
+        target.deviation(
+            Tolerance::AtMost(0.10),
+            "quick run: 64 gather rays per receiver and R_coarse = 0.096 m (2× the default \
+             spacing): the gather noise of eq. (16) and the coarser finest level are not \
+             averaged down as in the full run (128 rays, 0.068 m)",
+        )
+    } else {
+        target
+    });
+
+    // Where the energy goes at ε = 0.005: the paper's four bounces with the crate's
+    // default bounce threshold.
+    for (label, cfg) in [(
+        "ε = 0.005, 4 bounces, bounce threshold ε/10 (the crate's defaults)",
+        MeshlessConfig {
+            bounces: 4,
+            bounce_epsilon: None,
+            ..config(s, s.r_eps, 0.005)
+        },
+    )] {
+        let (run, _) = run_one(&scene, &query, &cfg, s, &points, &reference)?;
+        r.rows.push(Row::new(
+            format!("indirect energy kept (ours / reference), {label}"),
+            None,
+            run.energy,
+            "",
+            Tolerance::Info,
+        ));
+        r.rows.push(Row::new(
+            format!("indirect relative L1 vs path tracer, {label}"),
+            None,
+            run.l1,
+            "",
+            Tolerance::Info,
+        ));
+        table.push(run_row(format!("R_coarse = {} m, {label}", s.r_eps), &run));
+    }
+
+    // Dense one-level transfer against the hierarchy at equal finest points.
+    let hier_cfg = MeshlessConfig {
+        receiver_levels: s.dense_levels,
+        sender_levels: s.dense_levels.min(2),
+        bounces: 1,
+        ..config(s, s.dense_r, 0.005)
+    };
+    let finest = s.dense_r / f64::powi(2.0, s.dense_levels as i32 - 1);
+    let dense_cfg = MeshlessConfig {
+        receiver_levels: 1,
+        sender_levels: 1,
+        bounces: 1,
+        c_coarse: hier_cfg.support_factor(s.dense_levels - 1),
+        ..config(s, finest, 0.0)
+    };
+    let (hier, hier_pre) = run_one(&scene, &query, &hier_cfg, s, &points, &reference)?;
+    let (dense, dense_pre) = run_one(&scene, &query, &dense_cfg, s, &points, &reference)?;
+    table.push(run_row(
+        format!(
+            "hierarchy, {} levels, R_coarse = {} m, ε = 0.005, 1 bounce",
+            s.dense_levels, s.dense_r
+        ),
+        &hier,
+    ));
+    table.push(run_row(
+        format!("dense one level, R = {finest} m, ε = 0, 1 bounce"),
+        &dense,
+    ));
+    // The two one-bounce solutions against each other.
+    let direct = scene_direct(&scene, &query, s.emitter_samples, 1);
+    let hi = Relighter::new(&hier_pre, CpuBackend)?.relight_with(&query, &direct)?;
+    let de = Relighter::new(&dense_pre, CpuBackend)?.relight_with(&query, &direct)?;
+    let hi_v = at_points(&hi, &points);
+    let de_v: Vec<([f64; 3], [f64; 3])> = at_points(&de, &points)
+        .into_iter()
+        .map(|v| (v, [0.0; 3]))
+        .collect();
+    let (hd, _) = relative_l1(&hi_v, &de_v);
+    r.rows.push(
+        Row::new(
+            "dense / hierarchical refinement time at equal finest points",
+            Some(100.0),
+            dense.refine_ms / hier.refine_ms,
+            "",
+            Tolerance::AtLeast(1.0),
+        )
+        .comment(format!(
+            "paper: ~100× over Kristensen et al. at 192k functions; here {} dense points \
+             against {} hierarchical receivers; the hierarchy must win at equal points",
+            dense.receivers, hier.receivers
+        )),
+    );
+    r.rows.push(Row::new(
+        "dense / hierarchical links (T)",
+        None,
+        dense.t_links as f64 / hier.t_links as f64,
+        "",
+        Tolerance::AtLeast(1.0),
+    ));
+    r.rows.push(
+        Row::new(
+            "one-bounce indirect, hierarchy vs dense, relative L1",
+            None,
+            hd,
+            "",
+            Tolerance::AtMost(0.10),
+        )
+        .comment("the hierarchy at ε = 0.005 reproduces the dense transfer"),
+    );
+
+    r.tables.push(Table {
+        title: "Runs (one precomputation each; error against the path tracer)".into(),
+        headers: RUN_HEADERS.iter().map(|h| h.to_string()).collect(),
+        rows: table,
+    });
+
+    let path = ctx.figure_path("error-vs-eps.svg");
+    xy_plot(
+        &path,
+        "Cornell box: indirect error against ε",
+        &Axis::log("ε"),
+        &Axis::log("relative L1 of n·i"),
+        &[Series::new(
+            format!("R_coarse = {} m", s.r_eps),
+            EPS.iter().zip(&eps_runs).map(|(&e, q)| (e, q.l1)).collect(),
+            Style::LinePoints,
+        )],
+    )?;
+    r.figures.push(Figure {
+        path,
+        caption: "Indirect relative L1 against the path tracer as ε shrinks".into(),
+    });
+    let path = ctx.figure_path("links-vs-receivers.svg");
+    xy_plot(
+        &path,
+        "Cornell box: links and error against receivers (ε = 0.005)",
+        &Axis::log("receivers"),
+        &Axis::log("links"),
+        &[
+            Series::new(
+                "links in T",
+                sweep
+                    .iter()
+                    .map(|q| (q.receivers as f64, q.t_links as f64))
+                    .collect(),
+                Style::LinePoints,
+            ),
+            Series::new(
+                "links in S",
+                sweep
+                    .iter()
+                    .map(|q| (q.receivers as f64, q.s_links as f64))
+                    .collect(),
+                Style::LinePoints,
+            ),
+        ],
+    )?;
+    r.figures.push(Figure {
+        path,
+        caption: "Links against receivers over the R_coarse sweep".into(),
+    });
+    Ok(r)
+}
