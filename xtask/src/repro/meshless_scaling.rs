@@ -386,14 +386,13 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
 
     // Where the energy goes at ε = 0.005: the paper's four bounces with the crate's
     // default bounce threshold.
-    for (label, cfg) in [(
-        "ε = 0.005, 4 bounces, bounce threshold ε/10 (the crate's defaults)",
-        MeshlessConfig {
+    {
+        let label = "ε = 0.005, 4 bounces, bounce threshold ε/10 (the crate's defaults)";
+        let cfg = MeshlessConfig {
             bounces: 4,
             bounce_epsilon: None,
             ..config(s, s.r_eps, 0.005)
-        },
-    )] {
+        };
         let (run, _) = run_one(&scene, &query, &cfg, s, &points, &reference)?;
         r.rows.push(Row::new(
             format!("indirect energy kept (ours / reference), {label}"),
