@@ -199,26 +199,36 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             "",
             Tolerance::Info,
         ));
+        // The quick run's frames are far smaller than the paper's, and its times on a
+        // shared machine swing by 4× between runs (S·e 19.9 and 76 ms for the same
+        // frame in session 21): there they are context; the full run gates them.
+        let timing = |bound: f64| {
+            if ctx.quick {
+                Tolerance::Info
+            } else {
+                Tolerance::AtMost(bound)
+            }
+        };
         r.rows.push(Row::new(
             format!("direct illumination per frame, {}", spot.name),
             Some(70.0),
             times.direct_ms,
             "ms",
-            Tolerance::AtMost(70.0),
+            timing(70.0),
         ));
         r.rows.push(Row::new(
             format!("transport product S·e per frame, {}", spot.name),
             Some(54.0),
             times.transport_ms,
             "ms",
-            Tolerance::AtMost(54.0),
+            timing(54.0),
         ));
         r.rows.push(Row::new(
             format!("flattening per frame, {}", spot.name),
             Some(33.0),
             flatten_ms,
             "ms",
-            Tolerance::AtMost(33.0),
+            timing(33.0),
         ));
         table.push(vec![
             spot.name.clone(),
