@@ -51,6 +51,7 @@ pub mod estimate;
 pub mod exact;
 pub mod hierarchy;
 pub mod mask;
+pub(crate) mod shaft;
 pub mod shoot;
 pub mod solution;
 pub mod standard;

@@ -63,6 +63,7 @@ use crate::basis::TreeBasis;
 use crate::error::SolverError;
 use crate::exact::{self, Piece};
 use crate::mask::Coverage;
+use crate::shaft::{self, Blockers};
 use crate::support::Patch;
 
 /// How visibility enters the transfer blocks.
@@ -175,6 +176,8 @@ pub struct TransferCtx<'a> {
     identical_rule: RuleNd,
     /// Rules of the exact parts ([`crate::exact`]).
     rules: exact::Rules,
+    /// Possible blockers for shaft culling of the shadow rays ([`crate::shaft`]).
+    blockers: Blockers,
     /// Kernel evaluations so far.
     pub kernel_evals: AtomicU64,
     /// Shadow rays so far.
@@ -284,6 +287,7 @@ impl<'a> TransferCtx<'a> {
             message: "Gauss–Legendre rules of orders 3, 4, 8".into(),
         })?;
         Ok(Self {
+            blockers: Blockers::new(accel),
             rules,
             identical_rule,
             patches,
@@ -304,6 +308,14 @@ impl<'a> TransferCtx<'a> {
             kernel_evals: AtomicU64::new(0),
             rays: AtomicU64::new(0),
         })
+    }
+
+    /// The same context with shaft culling off (every block shoots all its rays), for
+    /// tests that culling changes no block.
+    #[cfg(test)]
+    pub(crate) fn without_shaft_culling(mut self) -> Self {
+        self.blockers = Blockers::default();
+        self
     }
 
     /// The basis.
@@ -382,7 +394,24 @@ impl<'a> TransferCtx<'a> {
         let mut evals = 0u64;
         let mut rays = 0u64;
         let with_vis = self.visibility == Visibility::InQuadrature;
-        self.accumulate(r, e, r, e, 0, with_vis, &mut acc, &mut evals, &mut rays);
+        let cands = if with_vis {
+            self.shaft_candidates(r, e, None)
+        } else {
+            None
+        };
+        let shoot = with_vis && cands.as_ref().is_none_or(|c| !c.is_empty());
+        self.accumulate(
+            r,
+            e,
+            r,
+            e,
+            0,
+            shoot,
+            cands.as_deref(),
+            &mut acc,
+            &mut evals,
+            &mut rays,
+        );
         let pr = &self.patches[r.patch];
         let pe = &self.patches[e.patch];
         let ar = pr.support.area * r.h * r.h;
@@ -474,6 +503,34 @@ impl<'a> TransferCtx<'a> {
         exact::moments(self.patches, self.basis, &self.rules, g, p, evals)
     }
 
+    /// The possible blockers of the shadow rays between the cells `r` and `e`
+    /// ([`crate::shaft`]), among `within` (every primitive when `None`); `None` when
+    /// the pair cannot be culled (curved or masked cells, culling off).
+    fn shaft_candidates(&self, r: &Region, e: &Region, within: Option<&[u32]>) -> Option<Vec<u32>> {
+        if !self.blockers.enabled() {
+            return None;
+        }
+        let (pr, pe) = (&self.patches[r.patch], &self.patches[e.patch]);
+        let (a, na) = shaft::cell_corners(pr, r, self.frame)?;
+        let (b, nb) = shaft::cell_corners(pe, e, self.frame)?;
+        Some(
+            self.blockers
+                .candidates((&a, na), (&b, nb), [pr.prim, pe.prim], within),
+        )
+    }
+
+    /// Whether the shadow rays between the sub-cells `rs` and `es` must be shot:
+    /// `false` when the link's candidate blockers `cands` cannot meet their shaft.
+    fn shaft_open(&self, rs: &Region, es: &Region, cands: Option<&[u32]>) -> bool {
+        match cands {
+            None => true,
+            Some([]) => false,
+            Some(c) => self
+                .shaft_candidates(rs, es, Some(c))
+                .is_none_or(|v| !v.is_empty()),
+        }
+    }
+
     /// Visible fraction from 16 fixed ray pairs between 4×4 grids (Hanrahan 1991).
     fn fractional_visibility(&self, r: &Region, e: &Region, rays: &mut u64) -> f64 {
         let pr = &self.patches[r.patch];
@@ -505,6 +562,7 @@ impl<'a> TransferCtx<'a> {
         es: &Region,
         depth: u32,
         with_vis: bool,
+        cands: Option<&[u32]>,
         out: &mut [f64],
         evals: &mut u64,
         rays: &mut u64,
@@ -526,11 +584,23 @@ impl<'a> TransferCtx<'a> {
                 // size; empty children are dropped by `facing`.
                 for b in es.split() {
                     if self.facing(rs, &b) {
-                        self.accumulate(rn, en, rs, &b, depth + 1, with_vis, out, evals, rays);
+                        self.accumulate(
+                            rn,
+                            en,
+                            rs,
+                            &b,
+                            depth + 1,
+                            with_vis,
+                            cands,
+                            out,
+                            evals,
+                            rays,
+                        );
                     }
                 }
                 return;
             }
+            let with_vis = with_vis && self.shaft_open(rs, es, cands);
             self.regular(rn, en, rs, es, with_vis, out, evals, rays);
             return;
         }
@@ -545,10 +615,12 @@ impl<'a> TransferCtx<'a> {
             None
         };
         if let Some(rule) = rule {
+            let with_vis = with_vis && self.shaft_open(rs, es, cands);
             self.apply_rule(rule, rn, en, rs, es, with_vis, out, evals, rays);
             return;
         }
         if depth >= self.max_split_depth {
+            let with_vis = with_vis && self.shaft_open(rs, es, cands);
             self.near_limit(rn, en, rs, es, with_vis, out, evals, rays);
             return;
         }
@@ -566,7 +638,7 @@ impl<'a> TransferCtx<'a> {
         for a in &rparts {
             for b in &eparts {
                 if self.facing(a, b) {
-                    self.accumulate(rn, en, a, b, depth + 1, with_vis, out, evals, rays);
+                    self.accumulate(rn, en, a, b, depth + 1, with_vis, cands, out, evals, rays);
                 }
             }
         }
