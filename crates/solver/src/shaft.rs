@@ -36,7 +36,8 @@
 //! lie on are never blockers (the shadow rays ignore them: [`Accel::occluded`]).
 //! Curved or masked cells (Virtual Mesh visibility points may lie outside the cell)
 //! are not culled. Candidate lists are inherited: a sub-pair of a near-field split
-//! tests only its link's candidates.
+//! tests only its link's candidates. The oracle's visibility samples
+//! ([`crate::transfer::TransferCtx::estimate`]) are culled the same way.
 
 use glam::{DVec2, DVec3};
 use wavelux_geometry::{Accel, Primitive};
@@ -206,7 +207,8 @@ mod tests {
     use crate::{Prepared, SolverConfig};
     use std::sync::atomic::Ordering;
 
-    /// Culling changes no block and no visibility class, bitwise, and saves rays: every
+    /// Culling changes no block, no visibility class and no oracle estimate (with
+    /// visibility), bitwise, and saves rays: every
     /// pair of root cells of the Cornell box (walls, blocks, light, the masked ceiling)
     /// and of the floor's level-1 cells (around and under both blocks).
     #[test]
@@ -214,6 +216,7 @@ mod tests {
         let scene = wavelux_scene::builtin::cornell_box();
         let cfg = SolverConfig {
             basis: crate::BasisKind::Multiwavelet(2),
+            oracle_visibility: true,
             ..SolverConfig::default()
         };
         let prep = Prepared::new(&scene, &cfg).unwrap();
@@ -237,6 +240,11 @@ mod tests {
                 }
                 let (a, sa) = on.block_seen(&rr, &er);
                 let (b, sb) = off.block_seen(&rr, &er);
+                assert_eq!(
+                    on.estimate(&rr, &er).to_bits(),
+                    off.estimate(&rr, &er).to_bits(),
+                    "oracle {r:?} {e:?}"
+                );
                 assert_eq!(sa, sb, "{r:?} {e:?}");
                 assert!(
                     a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),

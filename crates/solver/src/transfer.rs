@@ -993,14 +993,17 @@ impl<'a> TransferCtx<'a> {
         let ys = grid(pe, e, shift);
         let mut k = vec![0.0; m * m * m * m];
         let mut rays = 0u64;
+        // Shaft culling as for the blocks: interior grid points, rays only where the
+        // kernel is positive.
+        let with_vis = self.oracle_visibility
+            && self.visibility != Visibility::Off
+            && self
+                .shaft_candidates(r, e, None)
+                .is_none_or(|c| !c.is_empty());
         for (i, (x, nx, vx)) in xs.iter().enumerate() {
             for (j, (y, ny, vy)) in ys.iter().enumerate() {
                 let mut g = kernel(*x, *nx, *y, *ny);
-                if g > 0.0
-                    && self.oracle_visibility
-                    && self.visibility != Visibility::Off
-                    && !self.visible(*vx, pr, *vy, pe, &mut rays)
-                {
+                if g > 0.0 && with_vis && !self.visible(*vx, pr, *vy, pe, &mut rays) {
                     g = 0.0;
                 }
                 k[i * m * m + j] = g;
