@@ -369,12 +369,12 @@ impl<'a> TransferCtx<'a> {
     ///
     /// The quadrature (regular Gauss, singular rules, near-field splitting) gives the
     /// block with visibility `T_v` and, from the same samples, the unoccluded block
-    /// `T_u`. Where both nodes are planar polygons and the emitter is all real, the
-    /// entries that carry energy are also known exactly without occlusion
-    /// ([`Self::exact_parts`]): the constant–constant entry from the contour-integral
-    /// form factor, the receiver moments against the constant emitter and the
-    /// emitter moments against the constant receiver from Lambert's point-to-polygon
-    /// formula at the Gauss points. Those entries become `T_v + α (X − T_u)` with
+    /// `T_u`. Where both nodes are planar polygons, the entries that carry energy are
+    /// also known exactly without occlusion ([`Self::exact_parts`]): the
+    /// constant–constant entry from the contour-integral form factor, the receiver
+    /// moments against the constant emitter and the emitter moments against the
+    /// constant receiver from Lambert's point-to-polygon formula at the Gauss points
+    /// (on the real part of a partly masked emitter node, its clipped loops). Those entries become `T_v + α (X − T_u)` with
     /// `α = T_v[0,0] / T_u[0,0]` the kernel-weighted visible fraction of the pair:
     /// exact when the pair is unoccluded, zero when it is blocked, and never more than
     /// the exact unoccluded value. Every form-factor row therefore sums to at most one
@@ -463,8 +463,8 @@ impl<'a> TransferCtx<'a> {
     /// The exactly known unoccluded parts of the block of two planar nodes (see
     /// [`crate::exact`]), unnormalised (`∫∫ ψ_a G ψ_b` with the unit-square basis, i.e.
     /// before the `1/√(|R| |E|)` factor): `∫_R ∫_E G`, the receiver moments
-    /// `∫_R ψ_a(x) F(x → E) dA_x` and, when the emitter node is all real, the emitter
-    /// moments `∫_E ψ_b(y) F(y → R) dA_y`.
+    /// `∫_R ψ_a(x) F(x → E) dA_x` and the emitter moments `∫_E ψ_b(y) F(y → R) dA_y`
+    /// (over the real part of a partly masked emitter node, [`exact::real_moments`]).
     fn exact_parts(&self, r: &Region, e: &Region, evals: &mut u64) -> Option<ExactParts> {
         let (pr, pe) = self.exact_pieces(r, e)?;
         let receiver = self.exact_moments(r, &pe, evals)?;
@@ -474,7 +474,7 @@ impl<'a> TransferCtx<'a> {
         let emitter = if whole {
             self.exact_moments(e, &pr, evals)
         } else {
-            None
+            exact::real_moments(self.patches, self.basis, &self.rules, e, &pr, evals)
         };
         let constant = self.exact_constant(&pr, &pe)?;
         (constant.is_finite() && constant >= 0.0).then_some(ExactParts {
@@ -1102,7 +1102,8 @@ struct ExactParts {
     constant: f64,
     /// `∫_R ψ_a F(x → E)`, `a = 0..n`.
     receiver: Vec<f64>,
-    /// `∫_E ψ_b F(y → R)`, `b = 0..n` (when the emitter node is all real).
+    /// `∫_E ψ_b F(y → R)`, `b = 0..n`, over the emitter node's real part (`None` where
+    /// it has no exact form: an arc crossing the node).
     emitter: Option<Vec<f64>>,
 }
 
