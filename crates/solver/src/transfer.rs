@@ -460,6 +460,36 @@ impl<'a> TransferCtx<'a> {
         (out, seen)
     }
 
+    /// The kernel-weighted visible fraction `∫∫ G V / ∫∫ G` of the node pair by the
+    /// block's own quadrature (the `α` of [`Self::block`]), or `None` when visibility
+    /// is not sampled in quadrature or no sample pair faces the other. The closure
+    /// links ([`crate::closure`]) take it at each leaf below a partly visible link.
+    pub(crate) fn visible_fraction(&self, r: &Region, e: &Region) -> Option<f64> {
+        if self.visibility != Visibility::InQuadrature {
+            return None;
+        }
+        let nn = self.basis.n() * self.basis.n();
+        let mut acc = vec![0.0; 2 * nn];
+        let (mut evals, mut rays) = (0u64, 0u64);
+        let cands = self.shaft_candidates(r, e, None);
+        let shoot = cands.as_ref().is_none_or(|c| !c.is_empty());
+        self.accumulate(
+            r,
+            e,
+            r,
+            e,
+            0,
+            shoot,
+            cands.as_deref(),
+            &mut acc,
+            &mut evals,
+            &mut rays,
+        );
+        self.kernel_evals.fetch_add(evals, Ordering::Relaxed);
+        self.rays.fetch_add(rays, Ordering::Relaxed);
+        (acc[nn] > 0.0).then(|| (acc[0] / acc[nn]).clamp(0.0, 1.0))
+    }
+
     /// The exactly known unoccluded parts of the block of two planar nodes (see
     /// [`crate::exact`]), unnormalised (`∫∫ ψ_a G ψ_b` with the unit-square basis, i.e.
     /// before the `1/√(|R| |E|)` factor): `∫_R ∫_E G`, the receiver moments
