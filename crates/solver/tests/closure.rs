@@ -156,7 +156,7 @@ fn row_sums(sol: &Solution) -> (f64, f64) {
 }
 
 #[test]
-fn leaf_row_sums_are_one_in_a_closed_box_and_bounded_in_the_cornell_box() {
+fn leaf_row_sums_are_one_in_a_closed_box() {
     let scene = white_furnace(1.0, 0.5).unwrap();
     for basis in [BasisKind::Haar, BasisKind::Multiwavelet(3)] {
         let sol = solve(&scene, &config(basis, 3, GMRES)).unwrap();
@@ -166,22 +166,6 @@ fn leaf_row_sums_are_one_in_a_closed_box_and_bounded_in_the_cornell_box() {
             "{}: {lo} .. {hi}",
             basis.name()
         );
-    }
-    // With occluders a leaf's row is `Σ_E α_i(E) F(i → E)`: below a partly visible
-    // link the closure gives each leaf its own visible fraction (crate::closure), so
-    // the excess left is the quadrature error of those fractions (3×3 Gauss points on
-    // a large emitter hidden in part). Measured at level 3, ε = 1e-2: Haar 1.0079,
-    // M3 1.0100, on the short block's face towards the tall block (one visible
-    // fraction per coarse link gave 1.019 / 1.024, behind the tall block), and the
-    // floor cells under the short block, which see nothing, at 0 (were 0.064 / −0.016:
-    // the coarse fraction, and M3's quadratic projection of the shadow step).
-    let cornell = cornell_box();
-    for basis in [BasisKind::Haar, BasisKind::Multiwavelet(3)] {
-        let sol = solve(&cornell, &config(basis, 3, GMRES)).unwrap();
-        let (hi, lo) = row_sums(&sol);
-        println!("Cornell {}: row sums {lo:.4} .. {hi:.6}", basis.name());
-        assert!(hi <= 1.012, "{}: {lo} .. {hi}", basis.name());
-        assert!(lo > -1e-9, "{}: {lo} .. {hi}", basis.name());
     }
 }
 
@@ -202,8 +186,22 @@ fn spectral_radius(sol: &Solution, ch: usize) -> f64 {
     lambda
 }
 
+/// The Cornell box at every level (one solve per configuration serves all three
+/// checks, the costliest solves of this file):
+///
+/// - leaf row sums: with occluders a leaf's row is `Σ_E α_i(E) F(i → E)`; below a
+///   partly visible link the closure gives each leaf its own visible fraction
+///   (crate::closure), so the excess left is the quadrature error of those fractions
+///   (3×3 Gauss points on a large emitter hidden in part), and the floor cells under
+///   the short block, which see nothing, stay at 0 (one visible fraction per coarse
+///   link gave 1.019 / 1.024 at level 3, ε = 1e-2, and M3's quadratic projection of
+///   the shadow step −0.016 there). Measured at ε = 2e-2 (largest row sum): Haar
+///   1.0046 / 1.0123 / 1.0162 at levels 0 / 2 / 4, M3 1.0019 / 1.0098 at levels 1 / 3;
+///   smallest 0 (to rounding) at Haar level 4 and M3 level 3.
+/// - the spectral radius of `ρK` is below the largest reflectance;
+/// - Picard converges in every channel.
 #[test]
-fn cornell_operator_is_contractive_at_every_level() {
+fn cornell_rows_are_bounded_and_the_operator_contractive_at_every_level() {
     let scene = cornell_box();
     for (basis, levels) in [
         (BasisKind::Haar, &[0u8, 2, 4][..]),
@@ -215,6 +213,17 @@ fn cornell_operator_is_contractive_at_every_level() {
             cfg.tolerance = 1e-9;
             cfg.max_iterations = 400;
             let sol = solve(&scene, &cfg).unwrap();
+            let (hi, lo) = row_sums(&sol);
+            println!(
+                "Cornell {} level {level}: row sums {lo:.4} .. {hi:.6}",
+                basis.name()
+            );
+            assert!(
+                hi <= MAX_ROW_SUM,
+                "{} level {level}: {lo} .. {hi}",
+                basis.name()
+            );
+            assert!(lo > -1e-9, "{} level {level}: {lo} .. {hi}", basis.name());
             for ch in 0..3 {
                 let max_rho = sol
                     .patches
@@ -236,6 +245,10 @@ fn cornell_operator_is_contractive_at_every_level() {
         }
     }
 }
+
+/// Bound on the Cornell box's leaf row sums (measured up to 1.0162, see the test
+/// above).
+const MAX_ROW_SUM: f64 = 1.02;
 
 /// A tetrahedron with inward-facing triangles (a closed polyhedron).
 fn tetrahedron(p: [DVec3; 4], rho: f64) -> Scene {
