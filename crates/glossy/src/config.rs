@@ -59,8 +59,9 @@ pub struct GlossyConfig {
     pub max_level: u8,
     /// Samples of every transport coefficient.
     pub transport: TransportOptions,
-    /// Rays per receiving node for the importance (and radiance) arriving at it
-    /// (default 16).
+    /// Directional rays per receiving node for the reflected importance (and
+    /// radiance) arriving at it, and as many samples (a shadow ray each) of the
+    /// emitted part per band set with sources (default 16; see [`crate::refine`]).
     pub importance_rays: usize,
     /// Level of the up-front decomposition of directional / textured emitters and of
     /// the eye's pyramid (default 4).

@@ -360,7 +360,7 @@ impl GlossySolution {
         let cands = refine::candidates(&self.funcs, &self.links, &self.dead, self.config.max_level);
         rs.candidates = cands.len();
         let arrive = if self.importance_on() {
-            let m = refine::arriving_all(
+            let (m, traced) = refine::arriving_all(
                 &self.scene,
                 &self.funcs,
                 &self.haar,
@@ -369,8 +369,7 @@ impl GlossySolution {
                 self.config.importance_rays,
                 self.config.seed ^ (rs.round as u64),
             );
-            rs.rays +=
-                (m.len() * self.config.importance_rays.div_ceil(CHILDREN).max(1) * CHILDREN) as u64;
+            rs.rays += traced;
             Some(m)
         } else {
             None

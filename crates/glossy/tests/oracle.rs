@@ -9,6 +9,7 @@ mod common;
 
 use glam::{DVec2, DVec3};
 use wavelux_glossy::directions::{CellRule, integrate_cell};
+use wavelux_glossy::solution::Field;
 use wavelux_glossy::ward::cosine_power_radiance;
 use wavelux_glossy::*;
 use wavelux_scene::{EmissionProfile, Material, Rgb, Scene};
@@ -181,4 +182,87 @@ fn importance_emitted_by_a_patch_refines_the_links_into_it() {
     };
     let (e_none, e_imp) = (err(&none), err(&imp));
     assert!(e_imp < 0.97 * e_none, "{e_imp} vs {e_none}");
+}
+
+/// `M = ∫_{patch 3} ∫_{patch 2} L₂(y → z) G(y, z) dA_y dA_z` for the three patches
+/// with patch 2 of side `a2`: the power arriving at patch 3 (its `Γ_e = 1`), with
+/// `L₂(y → z) = ρ_s k(ω_{y1}, ω_{yz}) L_e A₁ cos θ_y cos θ₁ / r²` from the 0.01² light
+/// taken as a point (relative error ~1e-4), by 16 × 16 Gauss points on patches 2 and 3.
+fn three_patch_measure(a2: f64) -> f64 {
+    let lobe = WardLobe::new(WardVariant::Original, 0.2, 0.2).unwrap();
+    let (u, w) = wavelux_quadrature::GaussLegendre::new(16).unwrap().unit();
+    let x1 = DVec3::new(-0.5, 0.0, 1.0);
+    let mut m = 0.0;
+    for (i, j) in (0..16).flat_map(|i| (0..16).map(move |j| (i, j))) {
+        let y = DVec3::new(a2 * (u[i] - 0.5), a2 * (u[j] - 0.5), 0.0);
+        let d1 = x1 - y;
+        let r1 = d1.length();
+        let w1 = d1 / r1;
+        let e = 1e-4 * w1.z * w1.z / (r1 * r1) * w[i] * w[j] * a2 * a2;
+        for (k, l) in (0..16).flat_map(|k| (0..16).map(move |l| (k, l))) {
+            let z = DVec3::new(0.75 + 2.0 * (u[k] - 0.5), 2.0 * (u[l] - 0.5), 1.5);
+            let d = z - y;
+            let r = d.length();
+            let wo = d / r;
+            m += e * 4.0 * w[k] * w[l] * 0.5 * lobe.eval(w1, wo) * wo.z * wo.z / (r * r);
+        }
+    }
+    m
+}
+
+#[test]
+fn importance_refines_into_small_receivers_whatever_their_size() {
+    // Glossy §4.2: the eye's measure `M(Γ_e, L)` equals the importance arriving at
+    // the light, `M(Γ, L_e)`. The second needs the importance links into patch 2
+    // refined, whose oracle value `|Γ_s|·est·R_r` needs the radiance arriving at patch
+    // 2 from the 0.01² light; directional rays alone never hit it, and `M(Γ, L_e)`
+    // stayed at its V⁰ value (−83 %) at every size of patch 2.
+    for a2 in [1e-3, 1e-2, 1e-1, 1.0] {
+        let mut scene = Scene::new("three");
+        common::square(
+            &mut scene,
+            "patch1",
+            DVec3::new(-0.5, 0.0, 1.0),
+            -DVec3::Z,
+            0.01,
+            Material::lambertian("light", Rgb::BLACK, Rgb::grey(std::f64::consts::PI)),
+        );
+        let glossy = common::ward("glossy", 0.0, 0.5, 0.2);
+        common::square(&mut scene, "patch2", DVec3::ZERO, DVec3::Z, a2, glossy);
+        common::square(
+            &mut scene,
+            "patch3",
+            DVec3::new(0.75, 0.0, 1.5),
+            -DVec3::Z,
+            2.0,
+            Material::lambertian("diffuse", Rgb::grey(0.5), Rgb::BLACK),
+        );
+        let cfg = GlossyConfig {
+            variant: WardVariant::Original,
+            rounds: 5,
+            importance: ImportanceSource::Surfaces(vec!["patch3".into()]),
+            ..GlossyConfig::default()
+        };
+        let mut sol = GlossySolution::new(&scene, "three", cfg).unwrap();
+        let reference = three_patch_measure(a2);
+        let errors = |sol: &GlossySolution| {
+            let eye = sol.pairing(Field::EmittedImportance, Field::Radiance, 8);
+            let light = sol.pairing(Field::Importance, Field::EmittedRadiance, 8);
+            [
+                eye.unwrap()[0] / reference - 1.0,
+                light.unwrap()[0] / reference - 1.0,
+            ]
+        };
+        let start = errors(&sol);
+        sol.run(|_| {}).unwrap();
+        let end = errors(&sol);
+        // Measured: V⁰ −74..−84 % for both; after five rounds −14..−19 % (eye) and
+        // −14..+1 % (light) at every size.
+        for (e0, e) in start.iter().zip(&end) {
+            assert!(
+                e.abs() < 0.25 && e.abs() < e0.abs() / 3.0,
+                "{a2}: {start:?} -> {end:?}"
+            );
+        }
+    }
 }
