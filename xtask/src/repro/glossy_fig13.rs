@@ -22,6 +22,7 @@ use crate::reproduce::Ctx;
 use std::f64::consts::PI;
 use std::time::Instant;
 use wavelux::glossy::directions::DirectionKind;
+use wavelux::glossy::solution::Field;
 use wavelux::glossy::{
     GatherMode, GlossyConfig, GlossySolution, ImportanceSource, WardLobe, WardVariant,
 };
@@ -89,6 +90,25 @@ fn reference_l2(lobe: &WardLobe, w: DVec3) -> f64 {
     let dir = d / r2.sqrt();
     let g = dir.z * dir.z / r2;
     RHO_S2 * lobe.eval(-dir, w) * g * AREA
+}
+
+/// `M = ∫_{patch 3} L₂(ω_{2→z}) G(y₂, z) A₂ dz`, the power arriving at patch 3 (the
+/// measure of its `Γ_e = 1`), by the midpoint formula over a `k × k` grid of patch 3.
+fn reference_measure(lobe: &WardLobe, k: usize) -> f64 {
+    let mut m = 0.0;
+    for i in 0..k {
+        for j in 0..k {
+            let z = DVec3::new(
+                0.75 + 2.0 * ((i as f64 + 0.5) / k as f64 - 0.5),
+                2.0 * ((j as f64 + 0.5) / k as f64 - 0.5),
+                1.5,
+            );
+            let d = z.length();
+            let w = z / d;
+            m += reference_l2(lobe, w) * w.z * w.z / (d * d) * AREA * 4.0 / (k * k) as f64;
+        }
+    }
+    m
 }
 
 /// Relative L² error of patch 2's radiance at its midpoint over a `k × k` grid of the
@@ -314,6 +334,45 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
              (see wavelux_glossy::refine), so the oracle refines the links into it",
         ),
     );
+    // Reciprocity (§4.2): the measure of the importance patch, M(Γ_e, L), equals the
+    // importance arriving at the light, M(Γ, L_e); both converge to the reference.
+    let reference = reference_measure(&lobe, 64);
+    let pairing = |s: &GlossySolution, a: Field, b: Field| -> anyhow::Result<f64> {
+        Ok(s.pairing(a, b, 8)?[0] / reference - 1.0)
+    };
+    let v0 = GlossySolution::new(
+        &scene,
+        "glossy-fig13",
+        config(0, ImportanceSource::Surfaces(vec!["patch3".into()])),
+    )?;
+    for (name, a, b) in [
+        (
+            "M(Γ_e, L), the importance patch's measure",
+            Field::EmittedImportance,
+            Field::Radiance,
+        ),
+        (
+            "M(Γ, L_e), the importance arriving at the light",
+            Field::Importance,
+            Field::EmittedRadiance,
+        ),
+    ] {
+        let (e0, e) = (pairing(&v0, a, b)?, pairing(&imp, a, b)?);
+        r.rows.push(
+            Row::new(
+                format!("{name}: |error| after the last round / in V⁰"),
+                None,
+                e.abs() / e0.abs(),
+                "",
+                Tolerance::AtMost(0.5),
+            )
+            .comment(format!(
+                "relative error {e0:+.4} (V⁰) -> {e:+.4} ({rounds} rounds, importance on); \
+                 reference {reference:.4e} by the midpoint formula over a 64 × 64 grid of \
+                 patch 3"
+            )),
+        );
+    }
     r.rows.push(Row::new(
         "patch 3: error with gather / with importance (paper: < 1)",
         None,
