@@ -65,7 +65,10 @@
 //! (`k²` per face of an opaque cell, and per boundary square of the escape
 //! measurement) integrate the receiver by the midpoint rule, error `O(1/k²)`
 //! (`tests/receiver_samples.rs`: the closed-form case above, −27 % → +9.7 % → +1.3 %
-//! for `k` = 1, 2, 4), at `k²`–`k³` times the projection cost. `k = 1` is the paper.
+//! for `k` = 1, 2, 4), at `k²`–`k³` times the projection cost. `k = 1` is the paper
+//! ([`backend::cpu::CpuProjector::new`]); the default
+//! ([`backend::cpu::CpuProjector::default`], the command's `--receiver-samples`) is
+//! [`backend::cpu::DEFAULT_RECEIVER_SAMPLES`] `= 2`, the conservative operator.
 //!
 //! # Hierarchy
 //! The non-standard 3D Haar decomposition (seven wavelet types, eqs. (25)–(27)) of
@@ -90,7 +93,7 @@
 //! Exact chords instead of point-sampled slices; exact collision weights instead of
 //! the plain `σ` weight (optional); `Γ_ii = σ` instead of 1 (optional); eq. (33)'s
 //! undefined `χ^f` read as `χᵗ`; the pseudocode's `Chi += …` read as `=`; optional
-//! receiver samples (one point, the paper's, by default).
+//! receiver samples (two per axis by default; one point is the paper's).
 
 pub mod active;
 pub mod backend;
