@@ -151,20 +151,25 @@ pub struct SolveArgs {
     /// refine-solve-estimate rounds until the a-posteriori estimate is below it; the
     /// basis (unless --basis), thresholds and depth are chosen by the solver and
     /// recorded in the JSON (`statistics.target`); --max-level is then only a safety
-    /// limit [default: 10].
+    /// limit [default: 10]. Without it, `gather` solves to 2 % unless --eps, --oracle,
+    /// --max-level or --basis cdv ask for one fixed-threshold refinement.
     #[arg(long, value_parser = parse_fraction, conflicts_with_all = ["eps", "oracle"])]
     pub target_error: Option<f64>,
-    /// Refinement threshold (see --oracle for its unit) [default: 0.01; meshless: the
-    /// dimensionless link threshold, 0.005].
+    /// Refinement threshold (see --oracle for its unit); with `gather`, selects one
+    /// fixed-threshold refinement instead of the default target error [default: 0.01;
+    /// meshless: the dimensionless link threshold, 0.005].
     #[arg(long)]
     pub eps: Option<f64>,
-    /// Deepest element level (0..=20) [default: 2 for gather, 3 for shoot].
+    /// Deepest element level (0..=20); with `gather` and no --target-error, selects one
+    /// fixed-threshold refinement [default: 2 for gather, 3 for shoot; the target
+    /// error's safety limit: 10].
     #[arg(long)]
     pub max_level: Option<u8>,
     /// Smallest element area (scene units squared).
     #[arg(long, default_value_t = 0.0)]
     pub min_area: f64,
-    /// Refinement oracle [default: kernel; global-cube: both].
+    /// Refinement oracle; with `gather`, selects one fixed-threshold refinement
+    /// [default: kernel; global-cube: both].
     #[arg(long, value_enum)]
     pub oracle: Option<OracleArg>,
     /// Linear solver of `gather` [default: gmres]; `southwell` selects `--method shoot`.

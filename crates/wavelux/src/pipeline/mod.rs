@@ -91,10 +91,12 @@ pub struct Outcome {
 /// The method of the arguments: `--method reference` → the path tracer; `--method
 /// shoot` or `--solver southwell` → the shooting solver (which *is* Southwell
 /// iteration: the patch with the largest unshot power is relaxed next); otherwise
-/// gathering with the chosen linear solver, or with `--target-error` the target-error
-/// loop (gathering only). Inconsistent or invalid choices are errors.
+/// gathering with the chosen linear solver: with `--target-error`, or by default
+/// ([`target::default_target`]), the target-error loop; with `--eps`, `--oracle`,
+/// `--max-level` or `--basis cdv` one fixed-threshold refinement. Inconsistent or
+/// invalid choices are errors.
 pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
-    if let Some(t) = a.target_error {
+    if let Some(t) = a.target_error.or_else(|| target::default_target(a)) {
         if a.method != MethodArg::Gather {
             bail!("--target-error applies to --method gather");
         }
