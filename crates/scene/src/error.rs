@@ -208,6 +208,18 @@ pub enum WarningKind {
         /// Their total area (square scene units).
         area: f64,
     },
+    /// A mesh part that nearly tessellates a circle, a cylinder or a sphere was kept
+    /// as facets (or a polygon) because one criterion of [`crate::fit`] fails (mesh
+    /// grouping, [`crate::group`]): the surface the user may have meant is not the one
+    /// modelled.
+    CurveNotRecognised {
+        /// Triangles of the part.
+        triangles: usize,
+        /// The surface it nearly is: `disk`, `circular hole`, `cylinder`, `sphere`.
+        surface: String,
+        /// The failing criterion, with the measured value and the tolerance.
+        reason: String,
+    },
     /// A reflectance component `>= 1` or `< 0` was clamped (only under
     /// [`crate::ReflectancePolicy::Clamp`]).
     ReflectanceClamped {
@@ -231,12 +243,14 @@ pub enum WarningKind {
 impl WarningKind {
     /// A short stable tag of the kind (`degenerate-triangles-dropped`,
     /// `reflectance-clamped`, `non-area-primitive-skipped`, `ignored`,
-    /// `grouping-fallback`, `welded-triangles-dropped`), for machine-readable reports.
+    /// `grouping-fallback`, `welded-triangles-dropped`, `curve-not-recognised`), for
+    /// machine-readable reports.
     pub fn code(&self) -> &'static str {
         match self {
             Self::DegenerateTrianglesDropped { .. } => "degenerate-triangles-dropped",
             Self::GroupingFallback { .. } => "grouping-fallback",
             Self::WeldedTrianglesDropped { .. } => "welded-triangles-dropped",
+            Self::CurveNotRecognised { .. } => "curve-not-recognised",
             Self::ReflectanceClamped { .. } => "reflectance-clamped",
             Self::NonAreaPrimitiveSkipped { .. } => "non-area-primitive-skipped",
             Self::Ignored { .. } => "ignored",
@@ -269,6 +283,14 @@ impl fmt::Display for Warning {
             WarningKind::WeldedTrianglesDropped { count, area } => write!(
                 f,
                 "dropped {count} triangle(s) of total area {area:e} that welding near-duplicate vertices collapsed"
+            ),
+            WarningKind::CurveNotRecognised {
+                triangles,
+                surface,
+                reason,
+            } => write!(
+                f,
+                "kept {triangles} triangles as they are, not as the {surface} they nearly tessellate: {reason}"
             ),
             WarningKind::ReflectanceClamped { from, to } => {
                 write!(f, "reflectance {from} clamped to {to}")

@@ -6,24 +6,34 @@
 //!
 //! # Algorithm
 //!
-//! 1. Vertices with bitwise-equal positions are welded (split vertices at seams).
-//! 2. Groups grow from the largest ungrouped triangle across *manifold* edges (exactly
+//! 1. Vertices within [`WELD_REL`]` × (mesh bounding diagonal)` of each other are
+//!    welded (split or rounded vertices at seams).
+//! 2. Smooth components (connected across manifold edges with creases below
+//!    [`crate::fit::max_arc`]) that tessellate a sphere (closed) or a cylinder patch
+//!    (open: a tube, a half-pipe, a curved wall) become that analytic surface
+//!    ([`crate::fit`]); near misses (a tapered cone, jittered vertices, a tube with a
+//!    window) stay facets with a [`WarningKind::CurveNotRecognised`].
+//! 3. Groups grow from the largest ungrouped triangle across *manifold* edges (exactly
 //!    two triangles, traversed in opposite directions, so the orientation agrees): a
 //!    neighbour joins when all three of its vertices lie within
 //!    `COPLANAR_REL × (mesh bounding diagonal)` of the seed's plane and its normal
 //!    faces the same way. Non-manifold edges are never crossed.
-//! 3. A group's boundary is its directed edges that no opposite edge cancels. Boundary
+//! 4. A group's boundary is its directed edges that no opposite edge cancels. Boundary
 //!    edges with a boundary vertex on them (T-junctions, within the same tolerance)
 //!    are split there and cancelled again. Loops are traced keeping the interior on
 //!    the left (at a vertex where the boundary touches itself, the outgoing edge with
 //!    the smallest clockwise turn from the way back).
-//! 4. In the group's plane (normal: area-weighted, axis `u`: the outer loop's longest
+//! 5. In the group's plane (normal: area-weighted, axis `u`: the outer loop's longest
 //!    edge), vertices where a loop runs straight within `COPLANAR_REL × (group
 //!    diagonal)` are removed, and hole loops of that width (cracks) are dropped.
-//! 5. The result must be a proper region (one counter-clockwise outer loop, winding 0
+//! 6. The result must be a proper region (one counter-clockwise outer loop, winding 0
 //!    or 1 everywhere) whose area equals the triangles' area within the removed
 //!    vertices' tolerance; otherwise the group's triangles are kept as triangles and
 //!    a [`WarningKind::GroupingFallback`] says why. A wrong polygon is never produced.
+//! 7. Each loop that tessellates a circle becomes that circle, one full arc: a disk
+//!    (whose support is the exact concentric map), an annulus, a wall with round holes
+//!    (masked virtual supports with exact arc masks); near misses (an ellipse, jittered
+//!    vertices) keep their edges with a [`WarningKind::CurveNotRecognised`].
 //!
 //! Groups of fewer than [`MIN_GROUP_TRIANGLES`] triangles stay in the mesh (a pair is
 //! an exact parallelogram, merged as before, or a general quad, which in a curved
@@ -36,10 +46,10 @@ use glam::{DVec2, DVec3};
 
 use crate::analytic::{AnalyticPatch, AnalyticSurface, Placement};
 use crate::error::{SceneError, WarningKind};
-use crate::fit::{SphereFit, fit_sphere};
+use crate::fit::{CylinderFit, SphereFit, fit_circle, fit_cylinder, fit_sphere, max_arc};
 use crate::material::{Material, Rgb};
 use crate::scene::{MaterialId, Scene, Sidedness};
-use crate::shape::{Loop, MERGE_REL, PlaneFrame, PolygonShape, Shape, TriangleMesh};
+use crate::shape::{Loop, LoopEdge, MERGE_REL, PlaneFrame, PolygonShape, Shape, TriangleMesh};
 
 /// Coplanarity tolerance relative to the mesh's bounding-box diagonal: a triangle joins
 /// a group when its vertices are within `COPLANAR_REL × diagonal` of the group's plane.
@@ -74,13 +84,14 @@ pub enum MeshGrouping {
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeshPart {
     /// Appended to the mesh's name: `""` when the mesh became one surface, else
-    /// `.face{k}` for the `k`-th polygon and `.rest` for the triangles left over.
+    /// `.sphere{k}`, `.cylinder{k}` and `.face{k}` for the `k`-th sphere, cylinder patch
+    /// and polygon, and `.rest` for the triangles left over.
     pub suffix: String,
-    /// The shape: a sphere, a polygon, a triangle, a parallelogram, or the left-over
-    /// mesh.
+    /// The shape: a sphere, a cylinder patch, a polygon (with circular loops where
+    /// recognised), a triangle, a parallelogram, or the left-over mesh.
     pub shape: Shape,
-    /// The shape's front side is the mesh's back side: a sphere fitted to a mesh that
-    /// faces inwards (an analytic surface's front side is always its outside). Give the
+    /// The shape's front side is the mesh's back side: a sphere or cylinder fitted to
+    /// a mesh that faces inwards (an analytic surface's front side is always its outside). Give the
     /// part its sides with [`reversed_sides`].
     pub reversed: bool,
 }
@@ -110,8 +121,8 @@ pub fn reversed_sides(
 /// The surfaces of one grouped mesh.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Grouped {
-    /// The parts, polygons first (in the order of their largest triangle), the
-    /// left-over triangles last.
+    /// The parts: spheres, cylinder patches, polygons (in the order of their largest
+    /// triangle), the left-over triangles last.
     pub parts: Vec<MeshPart>,
     /// Groups kept as triangles, and why.
     pub warnings: Vec<WarningKind>,
@@ -185,21 +196,48 @@ pub fn group_mesh(mesh: &TriangleMesh, file: &str, element: &str) -> Result<Grou
         })
         .collect();
     let edges = EdgeMap::new(&tris);
-    // Closed components that tessellate a sphere become that sphere (crate::fit).
+    // Smooth components that tessellate a sphere (closed) or a cylinder patch (open)
+    // become that surface (crate::fit).
     let mut taken = vec![false; tris.len()];
     let mut spheres = Vec::new();
-    for comp in closed_components(&tris, &edges) {
+    let mut cylinders = Vec::new();
+    let mut warnings = Vec::new();
+    for (comp, closed) in smooth_components(&tris, &edges) {
         let welded: Vec<[u32; 3]> = comp.iter().map(|&t| tris[t].v).collect();
-        if let Some(fit) = fit_sphere(p, &welded) {
+        let fitted = if closed {
+            match fit_sphere(p, &welded) {
+                Some(fit) => {
+                    spheres.push((comp.len(), fit));
+                    true
+                }
+                None => false,
+            }
+        } else {
+            match fit_cylinder(p, &welded) {
+                Ok(fit) => {
+                    cylinders.push((comp.len(), fit));
+                    true
+                }
+                Err(miss) => {
+                    if let Some(reason) = miss {
+                        warnings.push(WarningKind::CurveNotRecognised {
+                            triangles: comp.len(),
+                            surface: "cylinder".into(),
+                            reason,
+                        });
+                    }
+                    false
+                }
+            }
+        };
+        if fitted {
             for &t in &comp {
                 taken[t] = true;
             }
-            spheres.push((comp.len(), fit));
         }
     }
     let groups = grow_groups(p, &tris, &edges, &taken, tol);
     let mut parts = Vec::new();
-    let mut warnings = Vec::new();
     let mut rest: Vec<[u32; 3]> = Vec::new();
     let mut grouped_triangles = 0;
     for g in &groups {
@@ -208,9 +246,16 @@ pub fn group_mesh(mesh: &TriangleMesh, file: &str, element: &str) -> Result<Grou
             continue;
         }
         match polygon_of(p, &tris, g, tol) {
-            Ok(shape) => {
+            Ok((shape, misses)) => {
                 grouped_triangles += g.len();
                 parts.push(shape);
+                warnings.extend(misses.into_iter().map(|(surface, reason)| {
+                    WarningKind::CurveNotRecognised {
+                        triangles: g.len(),
+                        surface: surface.into(),
+                        reason,
+                    }
+                }));
             }
             Err(reason) => {
                 warnings.push(WarningKind::GroupingFallback {
@@ -236,7 +281,7 @@ pub fn group_mesh(mesh: &TriangleMesh, file: &str, element: &str) -> Result<Grou
             area: welded_area,
         });
     }
-    let single = spheres.len() + parts.len() + usize::from(!rest.is_empty()) == 1;
+    let single = spheres.len() + cylinders.len() + parts.len() + usize::from(!rest.is_empty()) == 1;
     let name = |kind: &str, k: usize| {
         if single {
             String::new()
@@ -250,6 +295,14 @@ pub fn group_mesh(mesh: &TriangleMesh, file: &str, element: &str) -> Result<Grou
         out.push(MeshPart {
             suffix: name("sphere", k),
             shape: sphere_shape(fit),
+            reversed: fit.inward,
+        });
+    }
+    for (k, (count, fit)) in cylinders.into_iter().enumerate() {
+        grouped_triangles += count;
+        out.push(MeshPart {
+            suffix: name("cylinder", k),
+            shape: cylinder_shape(fit),
             reversed: fit.inward,
         });
     }
@@ -425,10 +478,13 @@ fn grow_groups(
     groups
 }
 
-/// The closed components of the welded triangles: maximal sets connected across
-/// manifold, consistently oriented edges in which every edge is such an edge (no
-/// boundary), each sorted.
-fn closed_components(tris: &[Tri], edges: &EdgeMap) -> Vec<Vec<usize>> {
+/// The smooth components of the welded triangles: maximal sets connected across
+/// manifold, consistently oriented edges whose two facets' normals differ by at most
+/// [`max_arc`] (a crease sharper than one facet of a recognisable curve separates
+/// components: a cylinder's caps from its tube), each sorted, with whether it is
+/// closed (every edge of its triangles is such an edge).
+fn smooth_components(tris: &[Tri], edges: &EdgeMap) -> Vec<(Vec<usize>, bool)> {
+    let cos_crease = max_arc().cos();
     let mut seen = vec![false; tris.len()];
     let mut out = Vec::new();
     for start in 0..tris.len() {
@@ -445,21 +501,38 @@ fn closed_components(tris: &[Tri], edges: &EdgeMap) -> Vec<Vec<usize>> {
             for e in 0..3 {
                 let (a, b) = (tris[t].v[e], tris[t].v[(e + 1) % 3]);
                 match edges.neighbour(t, a, b) {
-                    Some(u) if !seen[u] => {
-                        seen[u] = true;
-                        comp.push(u);
+                    Some(u) if tris[u].n.dot(tris[t].n) >= cos_crease => {
+                        if !seen[u] {
+                            seen[u] = true;
+                            comp.push(u);
+                        }
                     }
-                    Some(_) => {}
-                    None => closed = false,
+                    _ => closed = false,
                 }
             }
         }
-        if closed {
-            comp.sort_unstable();
-            out.push(comp);
-        }
+        comp.sort_unstable();
+        out.push((comp, closed));
     }
     out
+}
+
+/// The cylinder patch of a fit, front side away from the axis (see
+/// [`MeshPart::reversed`]).
+fn cylinder_shape(fit: CylinderFit) -> Shape {
+    Shape::Patch(AnalyticPatch {
+        surface: AnalyticSurface::Cylinder {
+            placement: Placement {
+                origin: fit.origin,
+                axis: fit.axis,
+                reference: fit.reference,
+            },
+            radius: fit.radius,
+            azimuth: fit.azimuth,
+            height: fit.height,
+        },
+        trim: None,
+    })
 }
 
 /// The whole sphere of a fit: an analytic patch, front side outwards (see
@@ -670,8 +743,18 @@ fn simplify(pts: &[DVec2], tol: f64) -> Vec<DVec2> {
     kept
 }
 
-/// The polygon (or triangle, or parallelogram) tiled by group `g`, or why not.
-fn polygon_of(p: &[DVec3], tris: &[Tri], g: &[usize], tol: f64) -> Result<Shape, Reason> {
+/// What a polygon loop nearly is, and why it was not recognised (see [`crate::fit`]).
+type LoopMiss = (&'static str, String);
+
+/// The polygon (or triangle, or parallelogram) tiled by group `g`, its loops that
+/// tessellate circles made circles (a disk, an annulus, round holes; [`fit_circle`]),
+/// with the loops that nearly do and why they were not; or why there is no polygon.
+fn polygon_of(
+    p: &[DVec3],
+    tris: &[Tri],
+    g: &[usize],
+    tol: f64,
+) -> Result<(Shape, Vec<LoopMiss>), Reason> {
     // Plane: area-weighted normal and centroid.
     let mut nsum = DVec3::ZERO;
     let mut csum = DVec3::ZERO;
@@ -763,15 +846,61 @@ fn polygon_of(p: &[DVec3], tris: &[Tri], g: &[usize], tol: f64) -> Result<Shape,
         ));
     }
     if holes.is_empty() && outer.len() == 3 {
-        return Ok(Shape::Triangle([0, 1, 2].map(|k| frame.point(outer[k]))));
+        let tri = Shape::Triangle([0, 1, 2].map(|k| frame.point(outer[k])));
+        return Ok((tri, Vec::new()));
     }
     if holes.is_empty() && outer.len() == 4 {
         let [a, b, c, d] = [0, 1, 2, 3].map(|k| frame.point(outer[k]));
         if (a + c - b - d).length() <= MERGE_REL * (c - a).length() {
-            return Ok(Shape::parallelogram(a, b - a, d - a));
+            return Ok((Shape::parallelogram(a, b - a, d - a), Vec::new()));
         }
     }
-    Ok(Shape::Polygon(poly))
+    let (poly, misses) = circles(poly, &outer, &holes);
+    Ok((Shape::Polygon(poly), misses))
+}
+
+/// The polygon with every loop that tessellates a circle replaced by that circle (one
+/// full arc, same orientation), and the loops that nearly do with why not. A circle
+/// that would make the region improper (a round hole bulging into another loop by
+/// its sagitta) keeps its polygon, and says so.
+fn circles(
+    poly: PolygonShape,
+    outer: &[DVec2],
+    holes: &[Vec<DVec2>],
+) -> (PolygonShape, Vec<LoopMiss>) {
+    let mut misses = Vec::new();
+    let mut out = poly.clone();
+    let loops =
+        std::iter::once((outer, "disk")).chain(holes.iter().map(|h| (&h[..], "circular hole")));
+    for (k, (pts, what)) in loops.enumerate() {
+        match fit_circle(pts) {
+            Ok(fit) => {
+                let circle = Loop {
+                    edges: vec![LoopEdge::Arc {
+                        start: fit.centre + DVec2::new(fit.radius, 0.0),
+                        center: fit.centre,
+                        ccw: k == 0,
+                    }],
+                };
+                let mut next = out.clone();
+                if k == 0 {
+                    next.outer = circle;
+                } else {
+                    next.holes[k - 1] = circle;
+                }
+                match check_region(&next) {
+                    Ok(()) => out = next,
+                    Err(e) => misses.push((
+                        what,
+                        format!("the circle would not bound a proper region: {e}"),
+                    )),
+                }
+            }
+            Err(Some(reason)) => misses.push((what, reason)),
+            Err(None) => {}
+        }
+    }
+    (out, misses)
 }
 
 /// Checks that a polygon's loops bound a proper region, as a reason string.

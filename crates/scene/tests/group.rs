@@ -9,7 +9,7 @@ use std::f64::consts::TAU;
 use glam::{DMat4, DVec3};
 use proptest::prelude::*;
 use wavelux_scene::{
-    AnalyticSurface, GltfOptions, MeshGrouping, Rgb, Scene, Shape, Sidedness, Surface,
+    AnalyticSurface, GltfOptions, LoopEdge, MeshGrouping, Rgb, Scene, Shape, Sidedness, Surface,
     TessellateOptions, TriangleMesh, WarningKind, fixtures, group_mesh, load_gltf_slice,
     tessellated, to_glb,
 };
@@ -46,19 +46,38 @@ fn ngon_area(n: u32, r: f64) -> f64 {
     0.5 * f64::from(n) * r * r * (TAU / f64::from(n)).sin()
 }
 
+/// The disk of a polygon whose outer loop is one full circle: (centre, radius).
+fn disk_of(s: &Shape) -> Option<(glam::DVec2, f64)> {
+    let Shape::Polygon(p) = s else { return None };
+    match (&p.outer.edges[..], p.holes.is_empty()) {
+        (
+            [
+                LoopEdge::Arc {
+                    start,
+                    center,
+                    ccw: true,
+                },
+            ],
+            true,
+        ) => Some((*center, (*start - *center).length())),
+        _ => None,
+    }
+}
+
 #[test]
-fn ring_disks_become_one_polygon_each() {
+fn ring_disks_become_one_disk_each() {
     let scene = fixtures::coaxial_disks(1.0, 1.0, 128, 8);
     let s = roundtrip(&scene, MeshGrouping::Surfaces);
     assert_eq!(s.surfaces.len(), 2);
     for (surf, normal) in s.surfaces.iter().zip([DVec3::Z, -DVec3::Z]) {
-        let p = polygon(&surf.shape);
-        assert_eq!(p.outer.edges.len(), 128, "{}", surf.name);
-        assert!(p.holes.is_empty());
-        assert!((p.frame.normal() - normal).length() < 1e-6);
-        // f32 positions: area within 1e-6 of the 128-gon's.
-        let exact = ngon_area(128, 1.0);
-        assert!((surf.shape.area() - exact).abs() < 1e-6 * exact);
+        let (_, r) = disk_of(&surf.shape)
+            .unwrap_or_else(|| panic!("{}: not a disk: {:?}", surf.name, surf.shape));
+        assert!((polygon(&surf.shape).frame.normal() - normal).length() < 1e-6);
+        // f32 positions: radius within 1e-6; the area is the disk's, not the 128-gon's.
+        assert!((r - 1.0).abs() < 1e-6, "{r}");
+        let exact = std::f64::consts::PI;
+        assert!((surf.shape.area() - exact).abs() < 2e-6 * exact);
+        assert!(surf.shape.area() > ngon_area(128, 1.0) * (1.0 + 1e-4));
     }
     // The 128 degenerate centre triangles of each grid are dropped with a warning.
     assert_eq!(
@@ -73,7 +92,7 @@ fn ring_disks_become_one_polygon_each() {
             panic!("expected triangles")
         };
         assert_eq!(m.triangle_count(), 1920);
-        assert!((surf.shape.area() - s.surfaces[0].shape.area()).abs() < 1e-6);
+        assert!((surf.shape.area() - ngon_area(128, 1.0)).abs() < 1e-6);
     }
 }
 
@@ -429,7 +448,7 @@ fn folded_and_non_coplanar_neighbours_stay_apart() {
     }
 }
 
-/// The ring disk scaled, rotated and moved: still one 128-gon of the scaled area.
+/// The ring disk scaled, rotated and moved: still one disk of the scaled radius.
 fn check_disk_at(scale: f64, angle: f64, offset: DVec3) {
     let (p, t) = fixtures::ring_disk(DVec3::ZERO, DVec3::X, DVec3::Y, 1.0, 128, 8);
     let m = DMat4::from_translation(offset)
@@ -441,9 +460,12 @@ fn check_disk_at(scale: f64, angle: f64, offset: DVec3) {
     let g = group_mesh(&built.mesh, "t", "m").unwrap();
     assert!(g.warnings.is_empty(), "scale {scale}: {:?}", g.warnings);
     assert_eq!(g.parts.len(), 1, "scale {scale}");
-    let poly = polygon(&g.parts[0].shape);
-    assert_eq!(poly.outer.edges.len(), 128, "scale {scale}");
-    let exact = ngon_area(128, scale);
+    let (_, r) = disk_of(&g.parts[0].shape).unwrap_or_else(|| panic!("scale {scale}: not a disk"));
+    assert!(
+        (r - scale).abs() < 1e-9 * scale,
+        "scale {scale}: radius {r}"
+    );
+    let exact = std::f64::consts::PI * scale * scale;
     let got = g.parts[0].shape.area();
     assert!(
         (got - exact).abs() < 1e-9 * exact,
@@ -547,4 +569,355 @@ proptest! {
             prop_assert!(p.outer.edges.len() >= 3);
         }
     }
+}
+
+// ---------------------------------------------------------------------------------
+// Curved surfaces: disks, annuli and cylinders recognised; near misses say why.
+// ---------------------------------------------------------------------------------
+
+/// Scale, rotate (about an oblique axis) and move.
+fn placed(scale: f64, offset: DVec3) -> DMat4 {
+    DMat4::from_translation(offset)
+        * DMat4::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), 0.7)
+        * DMat4::from_scale(DVec3::splat(scale))
+}
+
+fn moved(m: DMat4, p: Vec<DVec3>) -> Vec<DVec3> {
+    p.into_iter().map(|x| m.transform_point3(x)).collect()
+}
+
+/// Quads `(k, j)–(k, j+1)–(k+1, j+1)–(k+1, j)` of a `rows × cols` vertex grid (vertex
+/// `(k, j)` at `k·cols + j`, columns wrapping when `wrap`), split in two triangles,
+/// front side `∂j × ∂k` (or the other one when `flip`).
+fn grid_tris(rows: u32, cols: u32, wrap: bool, flip: bool) -> Vec<[u32; 3]> {
+    let id = |k: u32, j: u32| k * cols + j % cols;
+    let mut t = Vec::new();
+    for k in 0..rows - 1 {
+        for j in 0..if wrap { cols } else { cols - 1 } {
+            let (a, b, c, d) = (id(k, j), id(k, j + 1), id(k + 1, j + 1), id(k + 1, j));
+            if flip {
+                t.push([a, c, b]);
+                t.push([a, d, c]);
+            } else {
+                t.push([a, b, c]);
+                t.push([a, c, d]);
+            }
+        }
+    }
+    t
+}
+
+/// Points `radius(k, θ)·(cos θ, sin θ) + height(k)·z` on `rows` rings of `sectors`
+/// segments over `span` radians (a full turn wraps).
+fn rings(
+    rows: u32,
+    sectors: u32,
+    span: f64,
+    f: impl Fn(u32, u32, f64) -> (f64, f64),
+) -> Vec<DVec3> {
+    let cols = if span >= TAU { sectors } else { sectors + 1 };
+    let mut p = Vec::new();
+    for k in 0..rows {
+        for j in 0..cols {
+            let a = span * f64::from(j) / f64::from(sectors);
+            let (r, z) = f(k, j, a);
+            p.push(DVec3::new(r * a.cos(), r * a.sin(), z));
+        }
+    }
+    p
+}
+
+/// An annulus `r0..r1` in `z = 0` facing `+z` (a disk when `r0 = 0`; its degenerate
+/// centre triangles are dropped by the mesh builder).
+fn annulus(r0: f64, r1: f64, sectors: u32, steps: u32) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    let p = rings(steps + 1, sectors, TAU, |k, _, _| {
+        (r0 + (r1 - r0) * f64::from(k) / f64::from(steps), 0.0)
+    });
+    // Rows run outwards: ∂k × ∂j is +z, so flip the grid's ∂j × ∂k.
+    (p, grid_tris(steps + 1, sectors, true, true))
+}
+
+/// An open cylinder of radius 1 and height `h` about `z` over `span` radians, facing
+/// outwards (inwards when `inward`).
+fn tube(sectors: u32, stacks: u32, span: f64, h: f64, inward: bool) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    let p = rings(stacks + 1, sectors, span, |k, _, _| {
+        (1.0, h * f64::from(k) / f64::from(stacks))
+    });
+    let cols = if span >= TAU { sectors } else { sectors + 1 };
+    (p, grid_tris(stacks + 1, cols, span >= TAU, inward))
+}
+
+fn curve_warnings(g: &wavelux_scene::Grouped) -> Vec<(String, String)> {
+    g.warnings
+        .iter()
+        .filter_map(|w| match w {
+            WarningKind::CurveNotRecognised {
+                surface, reason, ..
+            } => Some((surface.clone(), reason.clone())),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn tessellated_disks_are_disks_from_16_to_512_segments_at_every_scale() {
+    for sectors in [16, 17, 40, 128, 512] {
+        for e in [-4, -1, 0, 2, 4] {
+            let s = 10f64.powi(e);
+            let offset = DVec3::new(3.0, -1.0, 2.0) * s;
+            let m = placed(s, offset);
+            let (p, t) = annulus(0.0, 1.0, sectors, 2);
+            let g = group_mesh(&mesh(moved(m, p), &t), "t", "m").unwrap();
+            assert!(g.warnings.is_empty(), "{sectors} at {s}: {:?}", g.warnings);
+            let [part] = &g.parts[..] else {
+                panic!("{sectors} at {s}: {} parts", g.parts.len())
+            };
+            let (c, r) = disk_of(&part.shape)
+                .unwrap_or_else(|| panic!("{sectors} at {s}: not a disk: {:?}", part.shape));
+            assert!((r - s).abs() < 1e-9 * s, "{sectors} at {s}: radius {r}");
+            let centre = polygon(&part.shape).frame.point(c);
+            assert!(
+                (centre - offset).length() < 1e-9 * s,
+                "{sectors} at {s}: {centre}"
+            );
+            let normal = polygon(&part.shape).frame.normal();
+            assert!((normal - m.transform_vector3(DVec3::Z) / s).length() < 1e-9);
+            let exact = std::f64::consts::PI * s * s;
+            assert!((part.shape.area() - exact).abs() < 1e-9 * exact);
+        }
+    }
+}
+
+#[test]
+fn annuli_are_disks_with_a_round_hole() {
+    for sectors in [16, 64, 512] {
+        for e in [-4, 0, 4] {
+            let s = 10f64.powi(e);
+            let (p, t) = annulus(0.4, 1.0, sectors, 3);
+            let g = group_mesh(
+                &mesh(moved(placed(s, DVec3::splat(7.0 * s)), p), &t),
+                "t",
+                "m",
+            )
+            .unwrap();
+            assert!(g.warnings.is_empty(), "{sectors} at {s}: {:?}", g.warnings);
+            let [part] = &g.parts[..] else {
+                panic!("{} parts", g.parts.len())
+            };
+            let poly = polygon(&part.shape);
+            assert!(
+                matches!(poly.outer.edges[..], [LoopEdge::Arc { ccw: true, .. }]),
+                "{sectors} at {s}: {:?}",
+                poly.outer
+            );
+            let [hole] = &poly.holes[..] else {
+                panic!("{} holes", poly.holes.len())
+            };
+            let [
+                LoopEdge::Arc {
+                    start,
+                    center,
+                    ccw: false,
+                },
+            ] = hole.edges[..]
+            else {
+                panic!("{sectors} at {s}: hole {hole:?}")
+            };
+            assert!(((start - center).length() - 0.4 * s).abs() < 1e-9 * s);
+            let exact = std::f64::consts::PI * (1.0 - 0.16) * s * s;
+            assert!(
+                (part.shape.area() - exact).abs() < 1e-9 * exact,
+                "{sectors} at {s}"
+            );
+        }
+    }
+}
+
+/// A recognised cylinder: placement, radius, azimuth and height ranges.
+type Cylinder = (wavelux_scene::Placement, f64, (f64, f64), (f64, f64));
+
+fn cylinder_of(part: &wavelux_scene::MeshPart) -> Option<Cylinder> {
+    let Shape::Patch(p) = &part.shape else {
+        return None;
+    };
+    match p.surface {
+        AnalyticSurface::Cylinder {
+            placement,
+            radius,
+            azimuth,
+            height,
+        } => Some((placement, radius, azimuth, height)),
+        _ => None,
+    }
+}
+
+#[test]
+fn tessellated_tubes_and_half_pipes_are_cylinders_at_every_scale() {
+    for sectors in [16, 64, 512] {
+        for stacks in [1, 3] {
+            for span in [TAU, std::f64::consts::PI] {
+                for inward in [false, true] {
+                    for e in [-4, 0, 4] {
+                        let s = 10f64.powi(e);
+                        let m = placed(s, DVec3::new(-2.0, 5.0, 1.0) * s);
+                        let (p, t) = tube(sectors, stacks, span, 2.0, inward);
+                        let g = group_mesh(&mesh(moved(m, p), &t), "t", "m").unwrap();
+                        let what = format!(
+                            "{sectors}×{stacks}, span {span:.2}, inward {inward}, scale {s}"
+                        );
+                        assert!(g.warnings.is_empty(), "{what}: {:?}", g.warnings);
+                        let [part] = &g.parts[..] else {
+                            panic!("{what}: {} parts", g.parts.len())
+                        };
+                        let (pl, r, az, h) =
+                            cylinder_of(part).unwrap_or_else(|| panic!("{what}: {:?}", part.shape));
+                        assert!((r - s).abs() < 1e-9 * s, "{what}: radius {r}");
+                        assert!(
+                            ((h.1 - h.0) - 2.0 * s).abs() < 1e-9 * s,
+                            "{what}: height {h:?}"
+                        );
+                        assert!(
+                            ((az.1 - az.0) - span).abs() < 1e-9,
+                            "{what}: azimuth {az:?}"
+                        );
+                        let axis = m.transform_vector3(DVec3::Z) / s;
+                        assert!(
+                            pl.axis.cross(axis).length() < 1e-9,
+                            "{what}: axis {}",
+                            pl.axis
+                        );
+                        assert_eq!(part.reversed, inward, "{what}");
+                        let exact = span * 2.0 * s * s;
+                        assert!((part.shape.area() - exact).abs() < 1e-9 * exact, "{what}");
+                        assert_eq!(g.grouped_triangles, t.len(), "{what}");
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_capped_tube_from_a_glb_is_a_cylinder_and_two_disks() {
+    // One mesh: the tube and its two caps (own vertices, welded at the rims), through
+    // a GLB file (f32 positions).
+    let (mut p, mut t) = tube(64, 2, TAU, 1.5, false);
+    for (z, flip) in [(0.0, true), (1.5, false)] {
+        let (cp, ct) = annulus(0.0, 1.0, 64, 2);
+        let base = p.len() as u32;
+        p.extend(cp.into_iter().map(|q| q + DVec3::new(0.0, 0.0, z)));
+        // The bottom cap faces −z.
+        t.extend(ct.into_iter().map(|x| {
+            let x = x.map(|i| i + base);
+            if flip { [x[0], x[2], x[1]] } else { x }
+        }));
+    }
+    let m = placed(3.0, DVec3::new(1.0, 2.0, 3.0));
+    let s = roundtrip(
+        &scene_with(Shape::Mesh(mesh(moved(m, p), &t))),
+        MeshGrouping::Surfaces,
+    );
+    let kinds: Vec<(&str, bool)> = s
+        .surfaces
+        .iter()
+        .map(|x| (x.name.as_str(), matches!(x.shape, Shape::Patch(_))))
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            ("box.cylinder0", true),
+            ("box.face0", false),
+            ("box.face1", false)
+        ],
+        "{:?}",
+        s.warnings
+    );
+    for f in &s.surfaces[1..] {
+        let (_, r) = disk_of(&f.shape).unwrap_or_else(|| panic!("{}: {:?}", f.name, f.shape));
+        assert!((r - 3.0).abs() < 1e-5, "{}: {r}", f.name);
+    }
+    let exact = (TAU * 1.5 + TAU) * 9.0;
+    assert!(
+        (s.total_area() - exact).abs() < 1e-5 * exact,
+        "{}",
+        s.total_area()
+    );
+}
+
+#[test]
+fn near_circles_stay_polygons_and_say_why() {
+    // An ellipse (semi-axes 1 and 0.9), a jittered circle (radii ± 1e-3) and a cone
+    // frustum (radii 1 → 0.9): kept as they are, each with a warning naming the
+    // surface it nearly is; coarse polygons and prisms (meant as such) stay silently.
+    let ellipse: Vec<DVec3> = annulus(0.0, 1.0, 64, 2)
+        .0
+        .into_iter()
+        .map(|q| q * DVec3::new(1.0, 0.9, 1.0))
+        .collect();
+    let t = annulus(0.0, 1.0, 64, 2).1;
+    let jitter: Vec<DVec3> = rings(3, 64, TAU, |k, j, _| {
+        (
+            0.5 * f64::from(k) * (1.0 + 1e-3 * (7.3 * f64::from(j)).sin()),
+            0.0,
+        )
+    });
+    for (what, p) in [("ellipse", ellipse), ("jittered", jitter)] {
+        let g = group_mesh(&mesh(p, &t), "t", "m").unwrap();
+        let [part] = &g.parts[..] else {
+            panic!("{what}: {} parts", g.parts.len())
+        };
+        assert_eq!(polygon(&part.shape).outer.edges.len(), 64, "{what}");
+        let w = curve_warnings(&g);
+        assert_eq!(w.len(), 1, "{what}: {:?}", g.warnings);
+        assert_eq!(w[0].0, "disk", "{what}");
+        assert!(
+            w[0].1.contains("from the best circle"),
+            "{what}: {}",
+            w[0].1
+        );
+    }
+    let cone = rings(5, 64, TAU, |k, _, _| {
+        let f = f64::from(k) / 4.0;
+        (1.0 - 0.1 * f, 2.0 * f)
+    });
+    let jittered_tube = rings(5, 64, TAU, |k, j, _| {
+        (
+            1.0 + 1e-3 * (7.3 * f64::from(j + 3 * k)).sin(),
+            0.5 * f64::from(k),
+        )
+    });
+    let t = grid_tris(5, 64, true, false);
+    for (what, p) in [("cone", cone), ("jittered tube", jittered_tube)] {
+        let m = mesh(p, &t);
+        let area = Shape::Mesh(m.clone()).area();
+        let g = group_mesh(&m, "t", "m").unwrap();
+        assert!(g.parts.iter().all(|x| cylinder_of(x).is_none()), "{what}");
+        let got: f64 = g.parts.iter().map(|x| x.shape.area()).sum();
+        assert!((got - area).abs() < 1e-9 * area, "{what}");
+        let w = curve_warnings(&g);
+        assert_eq!(w.len(), 1, "{what}: {:?}", g.warnings);
+        assert_eq!(w[0].0, "cylinder", "{what}");
+        assert!(
+            w[0].1.contains("from the best cylinder"),
+            "{what}: {}",
+            w[0].1
+        );
+    }
+    // A tube with a window (two quads missing): its facets do not cover the patch.
+    let (p, mut t) = tube(32, 3, TAU, 1.0, false);
+    t.drain(2 * 32 + 4..2 * 32 + 8);
+    let g = group_mesh(&mesh(p, &t), "t", "m").unwrap();
+    assert!(g.parts.iter().all(|x| cylinder_of(x).is_none()));
+    let w = curve_warnings(&g);
+    assert_eq!(w.len(), 1, "{:?}", g.warnings);
+    assert!(w[0].1.contains("cover"), "{}", w[0].1);
+    // Meant as polygons and prisms: a 12-gon, an 8-sided prism.
+    let (p, t) = annulus(0.0, 1.0, 12, 1);
+    let g = group_mesh(&mesh(p, &t), "t", "m").unwrap();
+    assert!(g.warnings.is_empty(), "{:?}", g.warnings);
+    assert_eq!(polygon(&g.parts[0].shape).outer.edges.len(), 12);
+    let (p, t) = tube(8, 3, TAU, 1.0, false);
+    let g = group_mesh(&mesh(p, &t), "t", "m").unwrap();
+    assert!(g.warnings.is_empty(), "{:?}", g.warnings);
+    assert!(g.parts.iter().all(|x| cylinder_of(x).is_none()));
 }
