@@ -910,6 +910,61 @@ fn loader_warnings_reach_stderr_and_json_and_strict_fails() -> Result<()> {
     Ok(())
 }
 
+/// A mesh that nearly tessellates a curve (here an elliptical disk of semi-axes 1.2
+/// and 1) is kept as the polygon it is, with a `curve-not-recognised` warning naming the
+/// mesh and the failed criterion, on stderr and in the JSON; `--strict` refuses it.
+/// The circular disk of the same file is recognised silently.
+#[test]
+fn a_mesh_that_nearly_tessellates_a_disk_is_a_warning() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    let mut scene = wavelux::scene::fixtures::coaxial_disks(1.0, 1.0, 32, 2);
+    let wavelux::scene::Shape::Mesh(m) = &mut scene.surfaces[1].shape else {
+        anyhow::bail!("the fixture's receiver is a mesh");
+    };
+    for p in &mut m.positions {
+        p.x *= 1.2;
+    }
+    wavelux::scene::write_glb(&scene, d.join("ellipse.glb"))?;
+    let base = [
+        "solve",
+        "ellipse.glb",
+        "--no-image",
+        "--samples",
+        "0",
+        "--max-level",
+        "1",
+        "--threads",
+        "2",
+        "--quiet",
+    ];
+    let mut args = base.to_vec();
+    args.extend_from_slice(&["--json", "e.json"]);
+    let out = run(&args, d);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert_eq!(err.matches("nearly tessellate").count(), 1, "{err}");
+    assert!(err.contains("from the best circle"), "{err}");
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(d.join("e.json"))?)?;
+    let kinds = warning_kinds(&v);
+    let curves: Vec<&(String, String)> = kinds
+        .iter()
+        .filter(|(k, _)| k == "curve-not-recognised")
+        .collect();
+    assert_eq!(curves.len(), 1, "{kinds:?}");
+    assert!(curves[0].1.contains("receiver"), "{}", curves[0].1);
+    // Both disks keep their area: the ellipse's polygon and the circle's disk.
+    let area = v["scene"]["total_area"].as_f64().unwrap_or(0.0);
+    let ngon = |a: f64| 0.5 * 32.0 * a * (std::f64::consts::TAU / 32.0).sin();
+    let want = std::f64::consts::PI + ngon(1.2);
+    assert!((area - want).abs() < 1e-5 * want, "{area} vs {want}");
+    let mut args = base.to_vec();
+    args.extend_from_slice(&["--json", "s.json", "--strict"]);
+    fails(&args, d, "nearly tessellate");
+    assert!(!d.join("s.json").exists());
+    Ok(())
+}
+
 /// A closed UV sphere of 24 × 12 (528 triangles) facing inwards, written as glTF, is
 /// recognised as a sphere: one support, the furnace answer `B = E/(1 − ρ) = 2` on its
 /// lit (inner, back) side, reported as such, also by the path tracer.
