@@ -20,6 +20,7 @@ use super::{Job, Method, Outcome, error_check, output, secs, surface_result, war
 use crate::cli::SolveArgs;
 use crate::progress;
 use crate::report;
+use crate::report::WarningInfo;
 
 /// Default link threshold ε of the CLI (ours). The seed's 0.025 (§4.2) with our
 /// dimensionless link norm keeps ~15 % of the Cornell box's indirect light (relative L1
@@ -122,7 +123,7 @@ impl Method for Meshless {
             .map(|(i, b)| surface_result(scene, i, false, *b, None))
             .collect();
         let mut check = Err("--samples 0".to_string());
-        let mut warned = Vec::new();
+        let mut warned = unsampled_emitters(&query, &a.scene);
         if a.samples > 0 {
             let t = Instant::now();
             let sp = progress::spinner(job.show_progress, "Monte Carlo error check");
@@ -215,6 +216,25 @@ impl Method for Meshless {
     }
 }
 
+/// Area emitters that the meshless direct lighting cannot sample (neither a triangle
+/// nor a parallelogram): a `not-modelled` warning each, naming the emitter.
+pub fn unsampled_emitters(query: &SceneSurfaces, file: &str) -> Vec<WarningInfo> {
+    query
+        .unsampled_emitters()
+        .iter()
+        .map(|name| WarningInfo {
+            kind: "not-modelled".into(),
+            file: Some(file.into()),
+            element: format!("emitter {name:?}"),
+            message: format!(
+                "{file}: emitter {name:?}: only triangle and parallelogram emitters are \
+                 sampled by --method meshless: its direct light is skipped"
+            ),
+            use_method: None,
+        })
+        .collect()
+}
+
 /// The precomputed transfer: read from `--transfer` when that file exists (it must
 /// belong to this scene), else built (and written to `--transfer` when given).
 /// Returns whether it was loaded.
@@ -241,9 +261,8 @@ pub fn precompute(
         pb.set_message(format!("meshless {phase} {done}/{total}"));
     })?;
     pb.finish_and_clear();
-    for w in &pre.stats.warnings {
-        eprintln!("wavelux: warning: {w}");
-    }
+    // `pre.stats.warnings` repeats what `warnings::unmodelled` and
+    // [`unsampled_emitters`] already report once, with file and element.
     if let Some(path) = &a.meshless.transfer {
         pre.save(path)?;
     }

@@ -42,9 +42,12 @@ pub fn run(r: &RelightArgs) -> anyhow::Result<()> {
     check_image_options(a)?;
     let (scene, stem) = load_scene(&a.scene, mesh_grouping(a))?;
     // The loader's warnings and what the meshless method does not model (Ward lobes,
-    // media, textures), as for `solve`: stderr, JSON, `--strict`.
+    // media, textures, emitters it cannot sample), as for `solve`, each once: stderr,
+    // JSON, `--strict`.
+    let query = SceneSurfaces::new(&scene).context("meshless scene query")?;
     let mut warned = warnings::from_scene(&scene);
     warned.extend(warnings::unmodelled(&scene, "meshless", &a.scene));
+    warned.extend(meshless::unsampled_emitters(&query, &a.scene));
     warnings::strict(a.strict, &warned)?;
     warnings::print(&warned);
     let frames = frames(r, &scene)?;
@@ -59,7 +62,6 @@ pub fn run(r: &RelightArgs) -> anyhow::Result<()> {
     let show = progress::enabled(a.quiet);
 
     let t = Instant::now();
-    let query = SceneSurfaces::new(&scene).context("meshless scene query")?;
     let (pre, loaded) = meshless::precompute(&scene, a, &config, show)?;
     let precompute_s = secs(t.elapsed());
     let relighter = Relighter::new(&pre, CpuBackend)?;
