@@ -119,7 +119,7 @@ fn relight_is_linear_in_the_lights_across_frames() -> Result<()> {
 }
 
 /// A closed box with a Ward floor, a participating medium, a sphere emitter (which the
-/// meshless direct lighting cannot sample) and a point light: `solve --method meshless`
+/// meshless direct lighting cannot sample) beside a parallelogram one and a point light: `solve --method meshless`
 /// and `relight` each print every warning once (the precomputation's own notes on
 /// media and Ward lobes are not repeated), list the same warnings in the JSON, and
 /// `--strict` refuses the scene.
@@ -163,6 +163,10 @@ albedo = 0.5
 name = "ball"
 material = "bulb"
 shape = { type = "sphere", center = [0.5, 0.5, 0.85], radius = 0.05 }
+[[surface]]
+name = "panel"
+material = "bulb"
+shape = { type = "parallelogram", origin = [0.4, 0.4, 0.99], edge_u = [0, 0.2, 0], edge_v = [0.2, 0, 0] }
 "#,
     );
     // Six inward-facing walls of the unit cube.
