@@ -614,16 +614,21 @@ impl PathTracer {
         Ok(img)
     }
 
-    /// The *flat* pixels of `view` (for [`Image::flat_noise`]): pixels whose 3×3
+    /// The *flat* pixels of `view` (for [`Image::flat_noise`]): pixels whose 5×5
     /// neighbourhood's centre rays all hit the same lit side of one non-emitting
-    /// surface, and are all fully lit or all fully shadowed as seen from 16 fixed
+    /// primitive (one face: a surface such as a block has several, meeting at
+    /// edges), and are all fully lit or all fully shadowed as seen from 16 fixed
     /// points on the emitters (stratified by area; no shadow boundary or penumbra
-    /// crosses the neighbourhood). Without light sampling (an emitter that cannot be
-    /// sampled by area) no pixel is flat.
+    /// crosses the neighbourhood). Five, not three: the noise metric compares a pixel
+    /// with its four neighbours, whose footprints (their jittered samples) reach 1.5
+    /// pixels from its centre; with a 3×3 test an edge (a wall's corner, the light
+    /// source's rim on the ceiling) half a pixel beyond a neighbour's centre entered
+    /// its samples and the metric measured edges, not noise. Without light sampling
+    /// (an emitter that cannot be sampled by area) no pixel is flat.
     pub fn flat_pixels(&self, view: &View) -> Vec<bool> {
         let (w, h) = (view.width, view.height);
         let lights = self.lights.as_ref();
-        // Per pixel centre: (surface, back side, visible fraction class) or None.
+        // Per pixel centre: (primitive, back side, visible fraction class) or None.
         let class: Vec<Option<(usize, bool, u8)>> = (0..w * h)
             .into_par_iter()
             .map(|i| {
@@ -631,7 +636,7 @@ impl PathTracer {
                 let tot = *cdf.last()?;
                 let ray = view.ray((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
                 let hit = self.accel.closest_hit(&ray, 0.0, f64::INFINITY)?;
-                let (s, m, n) = self.side_of(&hit)?;
+                let (_, m, n) = self.side_of(&hit)?;
                 if max3(m.e) > 0.0 {
                     return None;
                 }
@@ -664,20 +669,20 @@ impl PathTracer {
                     x if x == tried => 2,
                     _ => 1,
                 };
-                Some((s, !hit.front, cls))
+                Some((hit.prim as usize, !hit.front, cls))
             })
             .collect();
         (0..w * h)
             .map(|i| {
                 let (x, y) = (i % w, i / w);
-                if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+                if x < 2 || y < 2 || x + 2 >= w || y + 2 >= h {
                     return false;
                 }
                 let Some(c) = class[i] else { return false };
                 if c.2 == 1 {
                     return false;
                 }
-                (y - 1..=y + 1).all(|yy| (x - 1..=x + 1).all(|xx| class[yy * w + xx] == Some(c)))
+                (y - 2..=y + 2).all(|yy| (x - 2..=x + 2).all(|xx| class[yy * w + xx] == Some(c)))
             })
             .collect()
     }

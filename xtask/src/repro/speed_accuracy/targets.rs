@@ -35,6 +35,15 @@ fn target(quick: bool, t: Tolerance) -> Tolerance {
     if quick { Tolerance::Info } else { t }
 }
 
+/// By how much an upper-bound target is missed (empty when met or not computed).
+fn missed_by(value: f64, limit: f64) -> String {
+    if value > limit {
+        format!("; misses by {:.2}× the target", value / limit)
+    } else {
+        String::new()
+    }
+}
+
 /// Adds the target rows.
 pub fn rows(ctx: &Ctx, results: &[SceneResult], report: &mut Report) -> anyhow::Result<()> {
     let q = ctx.quick;
@@ -191,7 +200,10 @@ fn default_command(cb: &SceneResult, report: &mut Report) -> anyhow::Result<()> 
             "",
             Tolerance::AtMost(0.01),
         )
-        .comment("`error_estimate.relative_l1` of out/cornell.json"),
+        .comment(format!(
+            "`error_estimate.relative_l1` of out/cornell.json (the solver's estimate){}",
+            missed_by(est, 0.01)
+        )),
     );
     report.rows.push(
         Row::new(
@@ -201,7 +213,10 @@ fn default_command(cb: &SceneResult, report: &mut Report) -> anyhow::Result<()> 
             "s",
             Tolerance::AtMost(5.0),
         )
-        .comment("the release binary with no arguments, timed by this run"),
+        .comment(format!(
+            "the release binary with no arguments, timed by this run{}",
+            missed_by(wall, 5.0)
+        )),
     );
     report.rows.push(
         Row::new(
@@ -211,7 +226,12 @@ fn default_command(cb: &SceneResult, report: &mut Report) -> anyhow::Result<()> 
             "",
             Tolerance::AtMost(0.005),
         )
-        .comment("RMS relative second difference over flat pixels (`Image::flat_noise`)"),
+        .comment(format!(
+            "RMS relative second difference of the luminance over flat pixels \
+(`Image::flat_noise` over `PathTracer::flat_pixels`: 5×5 neighbourhoods on one surface \
+side, wholly lit or wholly shadowed){}",
+            missed_by(noise, 0.005)
+        )),
     );
     report.rows.push(
         Row::new(
@@ -222,10 +242,11 @@ fn default_command(cb: &SceneResult, report: &mut Report) -> anyhow::Result<()> 
             Tolerance::AtMost(0.02),
         )
         .comment(format!(
-            "{}² image box-filtered to {}²; reference floor {}",
+            "{}² image box-filtered to {}²; reference floor {}{}",
             img.width,
             cb.refs.image.width,
-            pct(cb.refs.floor[IMAGE])
+            pct(cb.refs.floor[IMAGE]),
+            missed_by(err, 0.02)
         )),
     );
     Ok(())
