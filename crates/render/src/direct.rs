@@ -8,15 +8,31 @@
 //! *unoccluded* point-to-emitter form factor — exact by Lambert's contour formula
 //! (`wavelux_geometry::formfactor::point_to_polygon`) for triangles and
 //! parallelograms, else a midpoint quadrature over a fine area grid of the emitter —
-//! and `V̄_j = Σ_i w_i V_i / Σ_i w_i` is the kernel-weighted visible fraction of `m`
-//! shadow rays to points drawn stratified (jittered `√m × √m` cells of an equal-area
-//! map; uniformly by area for other shapes), `w_i` the unoccluded kernel at the point.
+//! and `V̄_j = Σ_i w_i V_i / Σ_i w_i` is the kernel-weighted visible fraction of the
+//! shadow rays to a set of emitter points, `w_i` the unoccluded kernel at the point.
 //! Where an emitter is entirely visible or entirely hidden the estimate is exact and
-//! noise-free whatever `m`; only penumbrae carry (stratified) Monte Carlo noise, and
-//! there — where the first `m` samples disagree on visibility — the visible fraction is
-//! re-estimated from 16× as many samples (at most 4096), so soft shadows stay smooth at
-//! a cost paid only in penumbrae. Points behind an emitter's lit side receive nothing
-//! from it.
+//! noise-free; only penumbrae need many points.
+//!
+//! On triangles and parallelograms the points are the same for every receiver point
+//! (a fixed pattern per emitter), so `H_d` is a deterministic function of `x` and
+//! images show no Monte Carlo grain in soft shadows:
+//! - a first pass of `m` shadow rays (`√m × √m`) only *detects* penumbrae: its points
+//!   are the vertices of a `√m × √m` grid of an equal-area map of the emitter, pulled
+//!   in by `1e-3`, the emitter's corners among them. A straight occluder edge that
+//!   covers part of the emitter separates two of its corners, so it is never missed
+//!   (a grid of cell centres, or random points, misses a covered strip up to a cell
+//!   wide: receiver points there randomly got the unshadowed value, the speckle of
+//!   earlier images);
+//! - where the first pass disagrees on visibility, `V̄` comes from a fixed jittered
+//!   stratified pattern of `16×` as many points (at most 4096; the pattern is seeded by
+//!   the emitter's index): a deterministic rule whose error changes smoothly between
+//!   neighbouring points (banding in steps of at most `1/(16m)` of the emitter, not
+//!   noise).
+//!
+//! With `m ≥ 256` (no finer pattern) the first pass is the fixed stratified pattern
+//! itself. Other shapes draw `m` points uniformly by area from the caller's random
+//! stream (16× as many in penumbrae). Points behind an emitter's lit side receive
+//! nothing from it.
 
 use glam::{DVec2, DVec3};
 use rand::RngExt;
@@ -98,9 +114,11 @@ impl DirectLight {
     }
 
     /// Emitted irradiance (W/m², RGB) at `x` on a side with unit normal `n`, with
-    /// `samples` shadow rays per emitter (≥ 1; rounded down to a square for stratified
-    /// shapes; 16× as many, at most 4096, where they disagree on visibility); `skip`: the primitive `x` lies on (never an occluder of its own
-    /// point). Returns the irradiance and the number of shadow rays traced.
+    /// `samples` shadow rays per emitter (≥ 1; rounded down to a square on triangles
+    /// and parallelograms; 16× as many, at most 4096, where they disagree on
+    /// visibility; module docs); `skip`: the primitive `x` lies on (never an occluder
+    /// of its own point). `rng` is drawn from only for emitters of other shapes.
+    /// Returns the irradiance and the number of shadow rays traced.
     pub fn irradiance(
         &self,
         accel: &Accel,
@@ -113,7 +131,7 @@ impl DirectLight {
         let mut out = [0.0; 3];
         let mut rays = 0u64;
         let side = (samples.max(1) as f64).sqrt().floor().max(1.0) as usize;
-        for em in &self.emitters {
+        for (index, em) in self.emitters.iter().enumerate() {
             if Some(em.prim) == skip {
                 continue;
             }
@@ -149,14 +167,24 @@ impl DirectLight {
             if !(f > 0.0 && f.is_finite()) {
                 continue;
             }
-            // One stratified pass of `side²` samples (or `m` by area): kernel-weighted
-            // visible and total weights.
-            let pass = |side: usize, m: usize, rng: &mut Pcg64| {
+            // The fixed pattern of this emitter (module docs).
+            let pattern_rng = || Pcg64::new(PATTERN_SEED, index as u128);
+            // One pass over `m` points: kernel-weighted visible and total weights.
+            let pass = |pattern: Pattern, m: usize, rng: &mut Pcg64| {
                 let (mut wv, mut wt, mut n) = (0.0, 0.0, 0u64);
+                let mut fixed = pattern_rng();
                 for i in 0..m {
-                    let (y, ny) = match (&em.shape, p) {
-                        (Shape::Polygon(_), Primitive::Triangle(t)) => {
-                            let (u, v) = cell(i, side, rng);
+                    let (u, v) = match pattern {
+                        Pattern::Vertices(side) => vertex(i, side),
+                        Pattern::Cells(side) => cell(i, side, &mut fixed),
+                        Pattern::Random => (0.0, 0.0),
+                    };
+                    let (y, ny) = match (pattern, p) {
+                        (Pattern::Random, _) => match em.sampler.sample(p, rng) {
+                            Ok(s) => (s.point, s.normal),
+                            Err(_) => continue,
+                        },
+                        (_, Primitive::Triangle(t)) => {
                             let r = u.sqrt();
                             let (b, c) = (r * (1.0 - v), r * v);
                             (
@@ -164,14 +192,8 @@ impl DirectLight {
                                 t.normal(),
                             )
                         }
-                        (Shape::Polygon(_), Primitive::Parallelogram(q)) => {
-                            let (u, v) = cell(i, side, rng);
-                            (q.eval(DVec2::new(u, v)), q.normal())
-                        }
-                        _ => match em.sampler.sample(p, rng) {
-                            Ok(s) => (s.point, s.normal),
-                            Err(_) => continue,
-                        },
+                        (_, Primitive::Parallelogram(q)) => (q.eval(DVec2::new(u, v)), q.normal()),
+                        _ => continue,
                     };
                     let w = kernel(y, ny);
                     if w <= 0.0 {
@@ -186,20 +208,27 @@ impl DirectLight {
                 (wv, wt, n)
             };
             let polygon = matches!(em.shape, Shape::Polygon(_));
-            let m = if polygon { side * side } else { samples.max(1) };
-            let (mut wv, mut wt, n) = pass(side, m, rng);
+            let fine_side = (side * PENUMBRA_SIDE).min(MAX_SIDE);
+            let (first, m) = match (polygon, fine_side > side) {
+                (true, true) => (Pattern::Vertices(side), side * side),
+                (true, false) => (Pattern::Cells(side), side * side),
+                (false, _) => (Pattern::Random, samples.max(1)),
+            };
+            let (mut wv, mut wt, n) = pass(first, m, rng);
             rays += n;
-            // A penumbra (visibility disagrees between samples): one finer pass with
-            // PENUMBRA× the samples (at most MAX_SAMPLES) replaces the first.
+            // A penumbra (visibility disagrees between points): one finer pass with
+            // PENUMBRA_SIDE² times the points (at most MAX_SIDE²) replaces the first.
             if wv > 0.0 && wv < wt {
-                let fine_side = (side * PENUMBRA_SIDE).min(MAX_SIDE);
-                let fine = if polygon {
-                    fine_side * fine_side
+                let (fine, count) = if polygon {
+                    (Pattern::Cells(fine_side), fine_side * fine_side)
                 } else {
-                    (m * PENUMBRA_SIDE * PENUMBRA_SIDE).min(MAX_SIDE * MAX_SIDE)
+                    (
+                        Pattern::Random,
+                        (m * PENUMBRA_SIDE * PENUMBRA_SIDE).min(MAX_SIDE * MAX_SIDE),
+                    )
                 };
-                if fine > m {
-                    let (v2, t2, n2) = pass(fine_side, fine, rng);
+                if count > m || matches!(first, Pattern::Vertices(_)) {
+                    let (v2, t2, n2) = pass(fine, count, rng);
                     rays += n2;
                     if t2 > 0.0 {
                         (wv, wt) = (v2, t2);
@@ -215,6 +244,33 @@ impl DirectLight {
         }
         (out, rays)
     }
+}
+
+/// Which emitter points a pass uses (module docs).
+#[derive(Debug, Clone, Copy)]
+enum Pattern {
+    /// The vertices of a `side × side` grid, pulled in by [`VERTEX_INSET`].
+    Vertices(usize),
+    /// The fixed jittered stratified pattern of `side × side` cells.
+    Cells(usize),
+    /// Uniform by area from the caller's stream (shapes without an equal-area map).
+    Random,
+}
+
+/// Stream of the fixed patterns (one stream per emitter index).
+const PATTERN_SEED: u128 = 0x005e_edd1_2ec7_1194;
+/// How far the detection vertices are pulled into the emitter (fraction of its
+/// parameter square): shadow rays end on the emitter, not on its neighbours' edges.
+const VERTEX_INSET: f64 = 1e-3;
+
+/// Vertex `i` of a `side × side` grid over `[δ, 1 − δ]²` (`δ` = [`VERTEX_INSET`];
+/// the centre for `side = 1`).
+fn vertex(i: usize, side: usize) -> (f64, f64) {
+    if side < 2 {
+        return (0.5, 0.5);
+    }
+    let at = |k: usize| VERTEX_INSET + (1.0 - 2.0 * VERTEX_INSET) * k as f64 / (side - 1) as f64;
+    (at(i % side), at(i / side))
 }
 
 /// A jittered point in cell `i` of a `side × side` grid of `[0, 1]²`.
