@@ -702,8 +702,23 @@ fn parse_inner(
     })?;
     let mut scene = Scene::new(spec.name.clone().unwrap_or_default());
     let file = if file.is_empty() { MEMORY_FILE } else { file };
+    add_defaults(&mut scene, &spec, file)?;
+    // Includes first, so that surfaces can use included materials.
+    add_includes(&mut scene, &spec, file, base, stack, options)?;
+    add_materials(&mut scene, &spec, file)?;
+    add_surfaces(&mut scene, &spec, file, options)?;
+    add_media(&mut scene, &spec, file, base)?;
+    add_cameras(&mut scene, &spec, file)?;
+    for l in &spec.light {
+        let light = light_from_spec(l, file)?;
+        scene.lights.push(light);
+    }
+    scene.validate(file)?;
+    Ok(scene)
+}
 
-    // Defaults.
+/// The `[defaults]` table: method defaults carried by the scene.
+fn add_defaults(scene: &mut Scene, spec: &FileSpec, file: &str) -> Result<(), SceneError> {
     for (k, v) in &spec.defaults {
         let Some(d) = default_value(v) else {
             return Err(SceneError::Malformed {
@@ -714,8 +729,19 @@ fn parse_inner(
         };
         scene.defaults.insert(k.clone(), d);
     }
+    Ok(())
+}
 
-    // Includes first, so that surfaces can use included materials.
+/// `[[include]]`: glTF or native files merged under their prefix, after an optional
+/// uniform scale and translation.
+fn add_includes(
+    scene: &mut Scene,
+    spec: &FileSpec,
+    file: &str,
+    base: Option<&Path>,
+    stack: &mut Vec<PathBuf>,
+    options: &LoadOptions,
+) -> Result<(), SceneError> {
     for (i, inc) in spec.include.iter().enumerate() {
         let element = format!("include {i} ({:?})", inc.path);
         let Some(base) = base else {
@@ -765,8 +791,11 @@ fn parse_inner(
         }
         scene.merge(sub, &inc.prefix);
     }
+    Ok(())
+}
 
-    // Materials.
+/// `[[material]]`: Lambertian materials with optional emission profile and Ward lobe.
+fn add_materials(scene: &mut Scene, spec: &FileSpec, file: &str) -> Result<(), SceneError> {
     for m in &spec.material {
         if scene.material_id(&m.name).is_some() {
             return Err(SceneError::DuplicateName {
@@ -793,8 +822,17 @@ fn parse_inner(
         mat.validate(file)?;
         scene.add_material(mat);
     }
+    Ok(())
+}
 
-    // Surfaces.
+/// `[[surface]]`: shapes with their materials; meshes grouped into complex polygons
+/// when the options ask for it (loader warnings recorded on the scene).
+fn add_surfaces(
+    scene: &mut Scene,
+    spec: &FileSpec,
+    file: &str,
+    options: &LoadOptions,
+) -> Result<(), SceneError> {
     for s in &spec.surface {
         let element = format!("surface {:?}", s.name);
         if scene.surface(&s.name).is_some() {
@@ -870,7 +908,7 @@ fn parse_inner(
                 scene.tangents.insert(name.clone(), t);
             }
             let (material, sides) = if part.reversed {
-                reversed_sides(&mut scene, material, sides)
+                reversed_sides(scene, material, sides)
             } else {
                 (material, sides)
             };
@@ -882,8 +920,16 @@ fn parse_inner(
             });
         }
     }
+    Ok(())
+}
 
-    // Media.
+/// `[[medium]]`: participating media with their grids (files relative to `base`).
+fn add_media(
+    scene: &mut Scene,
+    spec: &FileSpec,
+    file: &str,
+    base: Option<&Path>,
+) -> Result<(), SceneError> {
     for m in &spec.medium {
         if scene.media.iter().any(|x| x.name == m.name) {
             return Err(SceneError::DuplicateName {
@@ -919,8 +965,11 @@ fn parse_inner(
         medium.validate(file)?;
         scene.media.push(medium);
     }
+    Ok(())
+}
 
-    // Cameras.
+/// `[[camera]]`: look-at cameras.
+fn add_cameras(scene: &mut Scene, spec: &FileSpec, file: &str) -> Result<(), SceneError> {
     for c in &spec.camera {
         let cam = Camera::look_at(
             c.name.clone(),
@@ -938,15 +987,7 @@ fn parse_inner(
         })?;
         scene.cameras.push(cam);
     }
-
-    // Lights.
-    for l in &spec.light {
-        let light = light_from_spec(l, file)?;
-        scene.lights.push(light);
-    }
-
-    scene.validate(file)?;
-    Ok(scene)
+    Ok(())
 }
 
 /// Applies a translate + uniform scale `m` to every surface, medium and camera of an
