@@ -233,13 +233,13 @@ pub fn write_gltf(
     if !(1..=16).contains(&sub) {
         return Err(invalid("sub", format!("{sub} not in 1..=16")));
     }
-    let h = &solution.system.h;
+    let h = solution.system().hierarchy();
     // Per surface: positions, colours (radiosity), indices.
     let mut per: Vec<MeshData> = vec![(Vec::new(), Vec::new(), Vec::new()); names.len()];
     let mut real_parts: HashMap<usize, RealPart> = HashMap::new();
     let mut scale: f64 = 0.0;
-    for &leaf in &h.leaves {
-        let key = h.keys[leaf as usize];
+    for &leaf in h.leaves() {
+        let key = h.keys()[leaf as usize];
         let p = key.patch as usize;
         let patch = &solution.patches[p];
         if patch.side != Side::Front || patch.surface >= per.len() {

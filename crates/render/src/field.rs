@@ -193,7 +193,7 @@ fn indirect_solution(sol: &Solution) -> Option<Solution> {
     if sol.cdv_field().is_some() || sol.stats.links == 0 {
         return None;
     }
-    let sys = &sol.system;
+    let sys = sol.system();
     let leaf: [Vec<f64>; 3] = std::array::from_fn(|ch| {
         let mut x = sol.leaf_coefficients(ch);
         for (v, e) in x.iter_mut().zip(sys.emission(ch)) {

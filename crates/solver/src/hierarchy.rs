@@ -453,38 +453,66 @@ fn split_sides(
 #[derive(Debug, Clone)]
 pub struct Hierarchy {
     /// Functions per node (`k²`).
-    pub n: usize,
+    pub(crate) n: usize,
     /// Node keys.
-    pub keys: Vec<NodeKey>,
+    pub(crate) keys: Vec<NodeKey>,
     /// Children (`u32::MAX` where absent; all four or none).
-    pub children: Vec<[u32; 4]>,
+    pub(crate) children: Vec<[u32; 4]>,
     /// Parent (`u32::MAX` for roots).
-    pub parent: Vec<u32>,
+    pub(crate) parent: Vec<u32>,
     /// `level_start[l]..level_start[l+1]` are the nodes of level `l`.
-    pub level_start: Vec<usize>,
+    pub(crate) level_start: Vec<usize>,
     /// Node index of each leaf (unknown block).
-    pub leaves: Vec<u32>,
+    pub(crate) leaves: Vec<u32>,
     /// Leaf index of each node (`u32::MAX` for internal nodes).
-    pub leaf_of: Vec<u32>,
+    pub(crate) leaf_of: Vec<u32>,
     /// Root node of each patch.
-    pub roots: Vec<u32>,
+    pub(crate) roots: Vec<u32>,
     /// CSR offsets of links by receiver node (`len = nodes + 1`).
-    pub recv_offsets: Vec<usize>,
+    pub(crate) recv_offsets: Vec<usize>,
     /// Emitter node of each link (receiver order).
-    pub link_emitter: Vec<u32>,
+    pub(crate) link_emitter: Vec<u32>,
     /// Receiver node of each link (receiver order).
-    pub link_receiver: Vec<u32>,
+    pub(crate) link_receiver: Vec<u32>,
     /// Blocks, `n²` per link (receiver order).
-    pub blocks: Vec<f64>,
+    pub(crate) blocks: Vec<f64>,
     /// What each block's shadow rays saw (receiver order).
-    pub link_seen: Vec<LinkVisibility>,
+    pub(crate) link_seen: Vec<LinkVisibility>,
     /// Links in emitter order (indices into the receiver-ordered arrays).
-    pub by_emitter: Vec<u32>,
+    pub(crate) by_emitter: Vec<u32>,
     /// CSR offsets of `by_emitter` by emitter node.
-    pub emit_offsets: Vec<usize>,
+    pub(crate) emit_offsets: Vec<usize>,
 }
 
 impl Hierarchy {
+    /// Functions per node (`k²`).
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// Node keys (patch, level, cell), in level order.
+    pub fn keys(&self) -> &[NodeKey] {
+        &self.keys
+    }
+
+    /// Node index of each leaf (unknown block), in unknown order.
+    pub fn leaves(&self) -> &[u32] {
+        &self.leaves
+    }
+
+    /// Root node of each patch.
+    pub fn roots(&self) -> &[u32] {
+        &self.roots
+    }
+
+    /// Links received by node `r`: `(emitter node, block)` with the `n × n` block
+    /// (row = receiver function, column = emitter function) of each link.
+    pub fn links_into(&self, r: usize) -> impl Iterator<Item = (usize, &[f64])> + '_ {
+        let nn = self.n * self.n;
+        (self.recv_offsets[r]..self.recv_offsets[r + 1])
+            .map(move |k| (self.link_emitter[k] as usize, &self.blocks[k * nn..][..nn]))
+    }
+
     /// Compiles links into the hierarchy of `n_patches` patches.
     pub fn compile(n: usize, n_patches: usize, links: &[LinkRec]) -> Self {
         Self::compile_with_nodes(n, n_patches, &[], links)

@@ -123,7 +123,7 @@ pub struct Solution {
     /// Patch indices per scene surface.
     pub by_surface: Vec<Vec<usize>>,
     /// The system (hierarchy and links) that was solved.
-    pub system: System,
+    pub(crate) system: System,
     basis: TreeBasis,
     /// Radiosity coefficients at every node (pulled), per channel.
     pub node_b: [Vec<f64>; 3],
@@ -139,6 +139,11 @@ pub struct Solution {
 }
 
 impl Solution {
+    /// The system (hierarchy and links) that was solved (read-only).
+    pub fn system(&self) -> &System {
+        &self.system
+    }
+
     /// Assembles a solution from leaf radiosity coefficients per channel.
     pub fn new(
         patches: Vec<Patch>,

@@ -123,7 +123,7 @@ pub(crate) fn cell_real_moments(
 #[derive(Debug, Clone)]
 pub struct System {
     /// The hierarchy and links.
-    pub h: Hierarchy,
+    pub(crate) h: Hierarchy,
     /// Two-scale matrices (`n × n`, `[parent * n + child]`) per child position.
     child: [Vec<f64>; 4],
     /// `∫ψ_a` on the unit cell.
@@ -202,6 +202,11 @@ impl System {
             leaf_real_moments,
             coverage_counts,
         }
+    }
+
+    /// The hierarchy and links (read-only).
+    pub fn hierarchy(&self) -> &Hierarchy {
+        &self.h
     }
 
     /// Number of unknowns per channel (`leaves × k²`).

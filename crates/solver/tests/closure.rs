@@ -128,10 +128,10 @@ fn picard_and_gauss_seidel_converge_at_rho_0_999() {
 
 /// Unit radiosity on every leaf (coefficient `√area` on the constant function).
 fn ones(sol: &Solution) -> Vec<f64> {
-    let sys = &sol.system;
-    let n = sys.h.n;
+    let sys = sol.system();
+    let n = sys.hierarchy().n();
     let mut x = vec![0.0; sys.dim()];
-    for (l, &i) in sys.h.leaves.iter().enumerate() {
+    for (l, &i) in sys.hierarchy().leaves().iter().enumerate() {
         x[l * n] = sys.node_area[i as usize].sqrt();
     }
     x
@@ -140,11 +140,11 @@ fn ones(sol: &Solution) -> Vec<f64> {
 /// Largest and smallest leaf row sum (irradiance from unit radiosity everywhere) of
 /// the leaves that receive.
 fn row_sums(sol: &Solution) -> (f64, f64) {
-    let sys = &sol.system;
-    let n = sys.h.n;
+    let sys = sol.system();
+    let n = sys.hierarchy().n();
     let irr = sys.irradiance(&ones(sol));
     let (mut hi, mut lo) = (f64::MIN, f64::MAX);
-    for (l, &i) in sys.h.leaves.iter().enumerate() {
+    for (l, &i) in sys.hierarchy().leaves().iter().enumerate() {
         if sys.leaf_rho[l].iter().all(|&r| r == 0.0) {
             continue;
         }
@@ -172,7 +172,7 @@ fn leaf_row_sums_are_one_in_a_closed_box() {
 /// Spectral radius of `ρK` by power iteration (the dominant eigenvalue of a
 /// non-negative operator is real and positive; 300 steps on a positive start vector).
 fn spectral_radius(sol: &Solution, ch: usize) -> f64 {
-    let sys = &sol.system;
+    let sys = sol.system();
     let mut x = ones(sol);
     let mut y = vec![0.0; x.len()];
     let mut lambda = 0.0;
@@ -296,7 +296,7 @@ proptest! {
         let (hi, lo) = row_sums(&sol);
         prop_assert!((hi - 1.0).abs() < 1e-11 && (lo - 1.0).abs() < 1e-11, "{lo} .. {hi}");
         // Symmetry on pseudo-random vectors.
-        let dim = sol.system.dim();
+        let dim = sol.system().dim();
         let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
         let mut rnd = || {
             state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -304,8 +304,8 @@ proptest! {
         };
         let x: Vec<f64> = (0..dim).map(|_| rnd()).collect();
         let y: Vec<f64> = (0..dim).map(|_| rnd()).collect();
-        let kx = sol.system.irradiance(&x);
-        let ky = sol.system.irradiance(&y);
+        let kx = sol.system().irradiance(&x);
+        let ky = sol.system().irradiance(&y);
         let a: f64 = y.iter().zip(&kx).map(|(u, v)| u * v).sum();
         let b: f64 = x.iter().zip(&ky).map(|(u, v)| u * v).sum();
         prop_assert!((a - b).abs() <= 1e-10 * a.abs().max(b.abs()), "{a} vs {b}");

@@ -51,21 +51,20 @@ fn cornell_level4_links_bounded_and_picard_converges() {
         ..SolverConfig::default()
     };
     let sol = solve(&scene, &config).unwrap();
-    let sys = &sol.system;
-    let h = &sys.h;
+    let sys = sol.system();
+    let h = sys.hierarchy();
 
     // Per-link bound against the exact unoccluded form factor.
     let mut worst_f: f64 = 0.0;
     let mut worst_ratio: f64 = 0.0;
-    for r in 0..h.keys.len() {
+    for r in 0..h.keys().len() {
         let ar = sys.node_area[r];
-        for k in h.recv_offsets[r]..h.recv_offsets[r + 1] {
-            let e = h.link_emitter[k] as usize;
+        for (e, block) in h.links_into(r) {
             if e == r {
                 continue;
             }
-            let f = h.blocks[k] * (sys.node_area[e] / ar).sqrt();
-            let (kr, ke) = (h.keys[r], h.keys[e]);
+            let f = block[0] * (sys.node_area[e] / ar).sqrt();
+            let (kr, ke) = (h.keys()[r], h.keys()[e]);
             let pr = &sol.patches[kr.patch as usize];
             let pe = &sol.patches[ke.patch as usize];
             let exact =
@@ -85,14 +84,14 @@ fn cornell_level4_links_bounded_and_picard_converges() {
     // Reflectance-weighted row sums of the leaves (unit radiosity: Haar
     // coefficient √area).
     let ones: Vec<f64> = h
-        .leaves
+        .leaves()
         .iter()
         .map(|&i| sys.node_area[i as usize].sqrt())
         .collect();
     let irr = sys.irradiance(&ones);
     let mut worst_row: f64 = 0.0;
     let mut worst_krow: f64 = 0.0;
-    for (l, &i) in h.leaves.iter().enumerate() {
+    for (l, &i) in h.leaves().iter().enumerate() {
         let f = irr[l] / sys.node_area[i as usize].sqrt();
         worst_row = worst_row.max(f);
         for ch in 0..3 {
@@ -102,7 +101,7 @@ fn cornell_level4_links_bounded_and_picard_converges() {
     println!(
         "leaves {}, links {}, largest link F {worst_f:.4}, largest F/exact {worst_ratio:.4}, \
          largest row sum {worst_row:.4}, largest rho-weighted row sum {worst_krow:.4}",
-        h.leaves.len(),
+        h.leaves().len(),
         sol.stats.links
     );
     assert!(worst_krow < 1.0, "weighted row sum {worst_krow}");

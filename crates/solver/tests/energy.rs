@@ -44,7 +44,13 @@ fn facing_squares(d: f64, rho: f64) -> (Scene, f64) {
 }
 
 fn deepest_level(sol: &Solution) -> u8 {
-    sol.system.h.keys.iter().map(|k| k.level).max().unwrap_or(0)
+    sol.system()
+        .hierarchy()
+        .keys()
+        .iter()
+        .map(|k| k.level)
+        .max()
+        .unwrap_or(0)
 }
 
 /// The ray estimate agrees with the exact escaped power `E·A·(1 − F_12)` within four

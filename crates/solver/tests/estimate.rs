@@ -75,8 +75,11 @@ fn solve_and_estimate(scene: &Scene, cfg: &SolverConfig) -> (Solution, f64) {
     let sol = solve_prepared(&prep).unwrap();
     let ctx = prep.transfer().unwrap();
     let est = estimate(&ctx, &sol, &EstimateOptions::default()).unwrap();
-    assert_eq!(est.leaf_error.len(), sol.system.h.leaves.len());
-    assert_eq!(est.link_error.len(), sol.system.h.link_count());
+    assert_eq!(
+        est.leaf_error.len(),
+        sol.system().hierarchy().leaves().len()
+    );
+    assert_eq!(est.link_error.len(), sol.system().hierarchy().link_count());
     let leaf_sum: f64 = est.leaf_error.iter().sum();
     let total: f64 = est.error_l1.iter().sum();
     assert!(
@@ -201,7 +204,10 @@ fn cached_estimate_equals_a_fresh_one() {
     same(&fresh, &again);
     assert!(fresh.rays > 0);
     assert_eq!(first.reused_links, 0);
-    assert_eq!(again.reused_links as usize, sol.system.h.link_count());
+    assert_eq!(
+        again.reused_links as usize,
+        sol.system().hierarchy().link_count()
+    );
     assert_eq!(again.rays, 0);
     assert_eq!(again.kernel_evals, 0);
     let (prep2, fine) = solved(2, 1e-3);

@@ -492,7 +492,7 @@ fn transpose_is_the_adjoint_of_k() {
             "{}: nothing refined",
             basis.name()
         );
-        let sys = &sol.system;
+        let sys = sol.system();
         let n = sys.dim();
         // A fixed pseudo-random pair of vectors (SplitMix64).
         let mut state = 0x1234_5678_u64;

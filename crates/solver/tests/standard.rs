@@ -108,7 +108,7 @@ fn standard_solve_of_given_links_agrees_on_cornell_box_m2() {
     // refinement): every channel (the walls are coloured) and the energy accounting.
     let sol = fixture();
     let prep = Prepared::new(&cornell_box(), &fixture_config()).unwrap();
-    let sys = StandardSystem::from_system(&sol.system, sol.basis()).unwrap();
+    let sys = StandardSystem::from_system(sol.system(), sol.basis()).unwrap();
     let st = sys.solve(&prep, Statistics::default()).unwrap();
     assert_eq!(st.stats.links, sol.stats.links);
     for ch in 0..3 {
@@ -136,7 +136,7 @@ fn standard_solve_of_given_links_agrees_on_cornell_box_m2() {
 #[test]
 fn gauss_seidel_in_the_wavelet_basis_reaches_the_same_solution() {
     let ns = fixture();
-    let sys = StandardSystem::from_system(&ns.system, ns.basis()).unwrap();
+    let sys = StandardSystem::from_system(ns.system(), ns.basis()).unwrap();
     let (x, conv) = sys
         .solve_channel(0, LinearMethod::GaussSeidel, 200, 1e-13, None, None)
         .unwrap();
@@ -164,7 +164,7 @@ fn fixture() -> &'static Solution {
 }
 
 fn fixture_dim() -> usize {
-    fixture().system.dim()
+    fixture().system().dim()
 }
 
 proptest! {
@@ -180,10 +180,10 @@ proptest! {
         ch in 0usize..3,
     ) {
         let sol = fixture();
-        let sys = StandardSystem::from_system(&sol.system, sol.basis()).unwrap();
+        let sys = StandardSystem::from_system(sol.system(), sol.basis()).unwrap();
         let x = sys.reconstruct(&w).unwrap();
         let mut kx = vec![0.0; x.len()];
-        sol.system.apply_k(ch, &x, &mut kx);
+        sol.system().apply_k(ch, &x, &mut kx);
         let expect = sys.decompose(&kx).unwrap();
         let mut got = vec![0.0; w.len()];
         sys.apply_k(ch, &w, &mut got);
@@ -204,7 +204,7 @@ proptest! {
         x in proptest::collection::vec(-1.0f64..1.0, fixture_dim()),
     ) {
         let sol = fixture();
-        let sys = StandardSystem::from_system(&sol.system, sol.basis()).unwrap();
+        let sys = StandardSystem::from_system(sol.system(), sol.basis()).unwrap();
         let w = sys.decompose(&x).unwrap();
         prop_assert!((dot(&w, &w) - dot(&x, &x)).abs() <= 1e-12 * dot(&x, &x));
         let back = sys.reconstruct(&w).unwrap();
@@ -217,7 +217,7 @@ proptest! {
 #[test]
 fn rows_columns_and_diagonal_match_application() {
     let sol = fixture();
-    let sys = StandardSystem::from_system(&sol.system, sol.basis()).unwrap();
+    let sys = StandardSystem::from_system(sol.system(), sol.basis()).unwrap();
     let k = sys.channel(1).unwrap();
     let n = k.dim();
     let mut diag = vec![0.0; n];
@@ -254,18 +254,18 @@ fn unrefined_links_are_the_same_matrix_in_both_forms() {
     // non-standard one, block for block.
     let sol = solve(&cornell_box(), &config(BasisKind::Multiwavelet(2), 1e9, 2)).unwrap();
     assert_eq!(sol.stats.refined_links, 0);
-    let sys = StandardSystem::from_system(&sol.system, sol.basis()).unwrap();
-    assert_eq!(sys.stored(), standard::link_coefficients(&sol.system));
+    let sys = StandardSystem::from_system(sol.system(), sol.basis()).unwrap();
+    assert_eq!(sys.stored(), standard::link_coefficients(sol.system()));
     assert_eq!(
         sys.nonzeros_above(1e-6).unwrap(),
-        standard::link_coefficients_above(&sol.system, 1e-6).unwrap()
+        standard::link_coefficients_above(sol.system(), 1e-6).unwrap()
     );
 }
 
 #[test]
 fn sparsity_counts_are_consistent() {
     let sol = fixture();
-    let sys = StandardSystem::from_system(&sol.system, sol.basis()).unwrap();
+    let sys = StandardSystem::from_system(sol.system(), sol.basis()).unwrap();
     let nz = sys.nonzeros();
     assert!(nz <= sys.stored() && nz > 0);
     let a = sys.nonzeros_above(1e-6).unwrap();
@@ -275,13 +275,13 @@ fn sparsity_counts_are_consistent() {
     // Every link reaches at least its own pair of root-scaling blocks, and refined
     // links reach ancestors' wavelets too: more stored blocks than root pairs.
     assert!(sys.stored_blocks() > 0);
-    assert!(standard::link_coefficients(&sol.system) > 0);
+    assert!(standard::link_coefficients(sol.system()) > 0);
 }
 
 #[test]
 fn typed_errors() {
     let sol = fixture();
-    let sys = StandardSystem::from_system(&sol.system, sol.basis()).unwrap();
+    let sys = StandardSystem::from_system(sol.system(), sol.basis()).unwrap();
     let n = sys.dim();
     assert!(matches!(
         sys.decompose(&vec![0.0; n + 1]),
@@ -305,7 +305,7 @@ fn typed_errors() {
             Err(SolverError::InvalidConfig { .. })
         ));
         assert!(matches!(
-            standard::link_coefficients_above(&sol.system, bad),
+            standard::link_coefficients_above(sol.system(), bad),
             Err(SolverError::InvalidConfig { .. })
         ));
     }
@@ -315,7 +315,7 @@ fn typed_errors() {
     ));
     let haar = wavelux_solver::TreeBasis::new(BasisKind::Haar).unwrap();
     assert!(matches!(
-        StandardSystem::from_system(&sol.system, &haar),
+        StandardSystem::from_system(sol.system(), &haar),
         Err(SolverError::UnsupportedBasis(_))
     ));
 }

@@ -836,16 +836,15 @@ fn closed_cylinder_form_factors_match_closed_forms() {
             ..cheap()
         };
         let sol = solve(&s, &cfg).unwrap();
-        let sys = &sol.system;
-        let hh = &sys.h;
+        let sys = sol.system();
+        let hh = sys.hierarchy();
         let mut f = std::collections::BTreeMap::new();
-        for rn in 0..hh.keys.len() {
-            for k in hh.recv_offsets[rn]..hh.recv_offsets[rn + 1] {
-                let e = hh.link_emitter[k] as usize;
-                let v = hh.blocks[k] * (sys.node_area[e] / sys.node_area[rn]).sqrt();
+        for rn in 0..hh.keys().len() {
+            for (e, block) in hh.links_into(rn) {
+                let v = block[0] * (sys.node_area[e] / sys.node_area[rn]).sqrt();
                 let (a, b) = (
-                    sol.patches[hh.keys[rn].patch as usize].surface,
-                    sol.patches[hh.keys[e].patch as usize].surface,
+                    sol.patches[hh.keys()[rn].patch as usize].surface,
+                    sol.patches[hh.keys()[e].patch as usize].surface,
                 );
                 *f.entry((a, b)).or_insert(0.0) += v;
             }

@@ -182,8 +182,8 @@ fn elements_at_level_12() {
     // Leaf averages (Haar: coefficient / √area).
     let mut integral = 0.0;
     let mut deepest = None;
-    for (l, &i) in sys.h.leaves.iter().enumerate() {
-        let k = sys.h.keys[i as usize];
+    for (l, &i) in sys.hierarchy().leaves().iter().enumerate() {
+        let k = sys.hierarchy().keys()[i as usize];
         let a = sys.node_area[i as usize];
         let b = x[l * n] / a.sqrt();
         assert!(b.is_finite() && b >= -1e-12, "leaf {k:?}: {b}");
@@ -217,7 +217,7 @@ fn elements_at_level_12() {
         "level 12: receiver average {ours:e} vs {exact:e} ({err:.2e}); leaf {k:?} {leaf_b:e} vs \
          {leaf_exact:e} ({leaf_err:.2e}); {} links, {} leaves",
         links.len(),
-        sys.h.leaves.len()
+        sys.hierarchy().leaves().len()
     );
     assert!(
         err < catalogue::TOL_REGULAR,

@@ -81,7 +81,7 @@ fn run_case(case: &Case) -> anyhow::Result<Outcome> {
         ..SolverConfig::default()
     };
     let sol = solve(&scene, &cfg)?;
-    let sys = &sol.system;
+    let sys = sol.system();
     let channels = sol.stats.iterations.len();
     let t0 = Instant::now();
     let st = StandardSystem::from_system(sys, sol.basis())?;
@@ -129,7 +129,7 @@ fn run_case(case: &Case) -> anyhow::Result<Outcome> {
         t_st.push(t.elapsed().as_secs_f64());
     }
     Ok(Outcome {
-        links: sys.h.link_count(),
+        links: sys.hierarchy().link_count(),
         ziegler_links: sol.stats.nonstandard_links,
         ns_coeffs: standard::link_coefficients(sys),
         ns_above: standard::link_coefficients_above(sys, REL_TOL)?,

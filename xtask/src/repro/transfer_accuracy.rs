@@ -271,9 +271,9 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
 /// with `k = 100` from a positive start, robust to the sign changes and the complex
 /// pairs of a multiwavelet operator's spectrum.
 fn spectral_radius(sys: &wavelux::solver::System, ch: usize) -> f64 {
-    let n = sys.h.n;
+    let n = sys.hierarchy().n();
     let mut x = vec![0.0; sys.dim()];
-    for (l, &i) in sys.h.leaves.iter().enumerate() {
+    for (l, &i) in sys.hierarchy().leaves().iter().enumerate() {
         x[l * n] = sys.node_area[i as usize].sqrt();
     }
     let mut y = vec![0.0; x.len()];
@@ -344,7 +344,7 @@ fn contractivity(ctx: &Ctx, report: &mut Report) -> anyhow::Result<()> {
                     .iter()
                     .map(|p| p.reflectance[ch])
                     .fold(0.0, f64::max);
-                let r = spectral_radius(&sol.system, ch);
+                let r = spectral_radius(sol.system(), ch);
                 if rho > 0.0 && r / rho >= ratio {
                     ratio = r / rho;
                     radius = r;
@@ -354,7 +354,7 @@ fn contractivity(ctx: &Ctx, report: &mut Report) -> anyhow::Result<()> {
                 picard_res = picard_res.max(c.final_relative_residual);
                 picard_it = picard_it.max(c.iterations.len() - 1);
                 let (_, g) = solve_channel(
-                    &sol.system,
+                    sol.system(),
                     ch,
                     LinearMethod::GaussSeidel,
                     5000,

@@ -257,7 +257,7 @@ of Picard's (unoccluded) and ≈ 1/9, 1/5 (occluded); three GMRES iterations mat
             case.label.to_string(),
             format!("{}", PAPER_LINKS[ci]),
             format!("{ns}"),
-            format!("{}", system.h.link_count()),
+            format!("{}", system.hierarchy().link_count()),
             format!("{}", PAPER_POTENTIAL[if case.cube { 1 } else { 0 }]),
             format!("{potential}"),
             format!("{}", prep.patches.patches.len()),
