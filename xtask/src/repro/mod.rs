@@ -9,6 +9,7 @@ pub mod ziegler_3_1_4;
 use crate::report::Report;
 use crate::reproduce::Ctx;
 
+mod default_bias;
 mod glossy_fig13;
 mod glossy_ward;
 mod meshless_common;
@@ -99,6 +100,13 @@ pub fn all() -> Vec<Reproduction> {
             seed_file: "003_fdfe6675de3bf6ad.txt",
             title: "Error vs wall time: wavelet bases × ε × levels and the path tracer",
             run: speed_accuracy::run,
+        },
+        Reproduction {
+            id: "default-bias",
+            source: "issue 13 §2: the default command against the path tracer",
+            seed_file: "004_cb5b08859768bf36.txt",
+            title: "The default command's surface averages: no significant bias, an honest printed error",
+            run: default_bias::run,
         },
         Reproduction {
             id: "ziegler-2.2.3-standard",
