@@ -170,14 +170,23 @@ impl Operator for CellAverages<'_> {
     }
 }
 
+/// Errors per iteration in Ziegler's unknowns (cell averages).
+struct CellAverageRuns {
+    picard: Vec<f64>,
+    cgnr_exact: Vec<f64>,
+    cgnr_ziegler: Vec<f64>,
+    /// `‖(T_Ziegler − Kᵀ) b‖ / ‖Kᵀ b‖` in cell averages.
+    difference: f64,
+}
+
 /// Picard and CGNR errors in Ziegler's unknowns (cell averages), with the exact and
 /// with Ziegler's transpose, and the relative difference of the two transposes applied
-/// to `b`: `(picard, cgnr exact, cgnr Ziegler, difference)`.
+/// to `b`.
 fn cell_average_runs(
     system: &System,
     xref: &[f64],
     iters: usize,
-) -> anyhow::Result<(Vec<f64>, Vec<f64>, Vec<f64>, f64)> {
+) -> anyhow::Result<CellAverageRuns> {
     let exact = CellAverages::new(system, 0, false);
     let ziegler = CellAverages::new(system, 0, true);
     let b = exact.to_u(&system.emission(0));
@@ -195,7 +204,12 @@ fn cell_average_runs(
     let picard = errors(&picard_solve(&exact, &b, &opts)?.history);
     let cg_exact = errors(&cgnr_solve(&IdentityMinus::new(&exact), &b, &opts)?.history);
     let cg_ziegler = errors(&cgnr_solve(&IdentityMinus::new(&ziegler), &b, &opts)?.history);
-    Ok((picard, cg_exact, cg_ziegler, difference))
+    Ok(CellAverageRuns {
+        picard,
+        cgnr_exact: cg_exact,
+        cgnr_ziegler: cg_ziegler,
+        difference,
+    })
 }
 
 fn min_ratio(a: &[f64], b: &[f64], iters: usize) -> f64 {
@@ -275,7 +289,12 @@ of Picard's (unoccluded) and ≈ 1/9, 1/5 (occluded); three GMRES iterations mat
             let op = TransposeAsK(system.channel(0));
             errors(&cgnr_solve(&IdentityMinus::new(&op), &system.emission(0), &opts)?.history)
         };
-        let (picard_u, cgnr_u, cgnr_zt, zt_difference) = cell_average_runs(&system, &xref, iters)?;
+        let CellAverageRuns {
+            picard: picard_u,
+            cgnr_exact: cgnr_u,
+            cgnr_ziegler: cgnr_zt,
+            difference: zt_difference,
+        } = cell_average_runs(&system, &xref, iters)?;
         let ratio3 = picard[3] / gmres[3];
         // Picard iterations (interpolated in log error) needed to reach GMRES's error
         // after 3 iterations.
