@@ -9,6 +9,7 @@ pub mod ziegler_3_1_4;
 use crate::report::Report;
 use crate::reproduce::Ctx;
 
+mod cornell_faces;
 mod default_bias;
 mod glossy_fig13;
 mod glossy_ward;
@@ -135,6 +136,13 @@ pub fn all() -> Vec<Reproduction> {
             seed_file: "004_cb5b08859768bf36.txt",
             title: "Transfer accuracy at the geometric extremes: analytic catalogue and white furnaces",
             run: transfer_accuracy::run,
+        },
+        Reproduction {
+            id: "cornell-faces",
+            source: "issue 11 §2: the Cornell box glTF with one node per face",
+            seed_file: "001_663a8814abd90f9c.txt",
+            title: "Every face of the one-node-per-face Cornell glTF at default settings vs the path tracer",
+            run: cornell_faces::run,
         },
         Reproduction {
             id: "meshless-table1",
