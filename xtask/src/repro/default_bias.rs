@@ -25,13 +25,12 @@
 //!
 //! Quick and full runs are the same run: the default command has one size.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::time::Instant;
 
 use wavelux::render::{PathTracer, ReferenceOptions};
 use wavelux::scene::builtin;
 
+use super::release_binary::run_wavelux;
 use crate::report::{Report, Row, Tolerance};
 use crate::reproduce::Ctx;
 
@@ -50,40 +49,6 @@ struct Surface {
     back: bool,
     emission: [f64; 3],
     radiosity: [f64; 3],
-}
-
-/// Builds the release binary and runs `wavelux solve --no-image` in a temporary
-/// directory; returns its JSON and the wall time.
-fn run_default() -> anyhow::Result<(serde_json::Value, f64)> {
-    let root: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .ok_or_else(|| anyhow::anyhow!("no workspace root"))?
-        .to_path_buf();
-    let st = Command::new(env!("CARGO"))
-        .args(["build", "--release", "-p", "wavelux", "--bin", "wavelux"])
-        .current_dir(&root)
-        .status()?;
-    anyhow::ensure!(st.success(), "cargo build --release -p wavelux failed");
-    let dir = std::env::temp_dir().join(format!("wavelux-default-bias-{}", std::process::id()));
-    std::fs::create_dir_all(&dir)?;
-    let json = dir.join("default.json");
-    let t = Instant::now();
-    let out = Command::new(root.join("target/release/wavelux"))
-        .args(["solve", "--no-image", "--quiet", "--json"])
-        .arg(&json)
-        .current_dir(&dir)
-        .output()?;
-    let wall = t.elapsed().as_secs_f64();
-    let result = (|| -> anyhow::Result<serde_json::Value> {
-        anyhow::ensure!(
-            out.status.success(),
-            "wavelux solve --no-image failed: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        Ok(serde_json::from_slice(&std::fs::read(&json)?)?)
-    })();
-    let _ = std::fs::remove_dir_all(&dir);
-    Ok((result?, wall))
 }
 
 fn triple(v: &serde_json::Value, what: &str) -> anyhow::Result<[f64; 3]> {
@@ -120,7 +85,15 @@ fn number(v: &serde_json::Value, what: &str) -> anyhow::Result<f64> {
 /// Runs the reproduction.
 pub fn run(_ctx: &Ctx) -> anyhow::Result<Report> {
     let mut r = Report::default();
-    let (json, wall) = run_default()?;
+    let (json, wall): (serde_json::Value, f64) = run_wavelux(
+        "default-bias",
+        &["solve", "--no-image", "--quiet", "--json", "default.json"],
+        |dir| {
+            Ok(serde_json::from_slice(&std::fs::read(
+                dir.join("default.json"),
+            )?)?)
+        },
+    )?;
     let est = &json["error_estimate"];
     let printed = number(&est["relative_l1"], "error_estimate.relative_l1")?;
     let check_noise = number(&est["check_noise"], "error_estimate.check_noise")?;

@@ -18,6 +18,7 @@ mod meshless_fig3;
 mod meshless_fig7;
 mod meshless_scaling;
 mod meshless_table1;
+mod release_binary;
 mod speed_accuracy;
 mod standard;
 mod transfer_accuracy;

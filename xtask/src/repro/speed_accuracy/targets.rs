@@ -15,16 +15,13 @@
 //! In quick mode (CI sizes: coarse references, small sweeps, no release build) the
 //! rows are reported for information only and the default command is not run.
 
-use std::path::Path;
-use std::process::Command;
-use std::time::Instant;
-
 use wavelux::render::{Image, PathTracer};
 use wavelux::scene::builtin;
 
 use super::measure::{IMAGE, Point, TEXEL, view_for};
 use super::{SceneResult, best, pct, time_to};
 use crate::report::{Report, Row, Tolerance};
+use crate::repro::release_binary::run_wavelux;
 use crate::reproduce::Ctx;
 
 fn is_solver(p: &&Point) -> bool {
@@ -152,37 +149,14 @@ the release binary)\n",
 /// Runs the release binary with no arguments (in a temporary directory) and measures
 /// its printed error estimate, wall time, image noise and image error.
 fn default_command(cb: &SceneResult, report: &mut Report) -> anyhow::Result<()> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .ok_or_else(|| anyhow::anyhow!("no workspace root"))?
-        .to_path_buf();
-    let st = Command::new(env!("CARGO"))
-        .args(["build", "--release", "-p", "wavelux", "--bin", "wavelux"])
-        .current_dir(&root)
-        .status()?;
-    anyhow::ensure!(st.success(), "cargo build --release -p wavelux failed");
-    let dir = std::env::temp_dir().join(format!("wavelux-default-{}", std::process::id()));
-    std::fs::create_dir_all(&dir)?;
-    let t = Instant::now();
-    let out = Command::new(root.join("target/release/wavelux"))
-        .current_dir(&dir)
-        .output()?;
-    let wall = t.elapsed().as_secs_f64();
-    let result = (|| -> anyhow::Result<(f64, Image)> {
-        anyhow::ensure!(
-            out.status.success(),
-            "wavelux failed: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+    let ((est, img), wall) = run_wavelux("default", &[], |dir| {
         let json: serde_json::Value =
             serde_json::from_slice(&std::fs::read(dir.join("out/cornell.json"))?)?;
         let est = json["error_estimate"]["relative_l1"]
             .as_f64()
             .ok_or_else(|| anyhow::anyhow!("no error estimate in the JSON"))?;
         Ok((est, Image::read(&dir.join("out/cornell.exr"))?))
-    })();
-    let _ = std::fs::remove_dir_all(&dir);
-    let (est, img) = result?;
+    })?;
     let scene = builtin::cornell_box();
     let pt = PathTracer::new(&scene)?;
     let view = view_for(&scene, img.width)?;
@@ -228,7 +202,7 @@ fn default_command(cb: &SceneResult, report: &mut Report) -> anyhow::Result<()> 
         )
         .comment(format!(
             "RMS relative second difference of the luminance over flat pixels \
-(`Image::flat_noise` over `PathTracer::flat_pixels`: 5×5 neighbourhoods on one surface \
+(`Image::flat_noise` over `PathTracer::flat_pixels`: 5×5 neighbourhoods on one primitive \
 side, wholly lit or wholly shadowed){}",
             missed_by(noise, 0.005)
         )),
