@@ -3,12 +3,12 @@
 //! Monte Carlo reference within stated tolerances.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 use anyhow::{Context, Result};
 use serde_json::Value;
 
-const EXE: &str = env!("CARGO_BIN_EXE_wavelux");
+mod common;
+use common::{fails, run, succeeds};
 
 /// Small, fast settings for every solve (dev profile).
 const FAST: &[&str] = &[
@@ -30,32 +30,9 @@ const FAST: &[&str] = &[
     "2",
 ];
 
-fn run(args: &[&str], cwd: &Path) -> Output {
-    Command::new(EXE)
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the wavelux binary runs")
-}
-
+/// Runs `wavelux ARGS` in `cwd`, which must succeed; returns its stdout.
 fn ok(args: &[&str], cwd: &Path) -> Result<String> {
-    let out = run(args, cwd);
-    anyhow::ensure!(
-        out.status.success(),
-        "wavelux {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
-}
-
-fn fails(args: &[&str], cwd: &Path, needle: &str) {
-    let out = run(args, cwd);
-    assert!(!out.status.success(), "wavelux {args:?} should fail");
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains(needle),
-        "stderr of {args:?} lacks {needle:?}: {err}"
-    );
+    Ok(String::from_utf8_lossy(&succeeds(args, cwd)?.stdout).into_owned())
 }
 
 fn solve_json(scene: &str, extra: &[&str], cwd: &Path, name: &str) -> Result<Value> {

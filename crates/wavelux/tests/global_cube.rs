@@ -3,12 +3,12 @@
 //! slices, image) and the typed errors of bad options.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 use anyhow::{Context, Result};
 use serde_json::Value;
 
-const EXE: &str = env!("CARGO_BIN_EXE_wavelux");
+mod common;
+use common::run;
 
 /// Small settings (dev profile).
 const SMALL: &[&str] = &[
@@ -24,14 +24,6 @@ const SMALL: &[&str] = &[
     "2",
     "--quiet",
 ];
-
-fn run(args: &[&str], cwd: &Path) -> Output {
-    Command::new(EXE)
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the wavelux binary runs")
-}
 
 fn solve(scene: &str, extra: &[&str], cwd: &Path) -> Result<Value> {
     let mut args = vec!["solve", scene];

@@ -3,20 +3,12 @@
 //! the JSON's glossy knobs and statistics, and clear errors for bad options.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 use anyhow::{Context, Result};
 use serde_json::Value;
 
-const EXE: &str = env!("CARGO_BIN_EXE_wavelux");
-
-fn run(args: &[&str], cwd: &Path) -> Output {
-    Command::new(EXE)
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the wavelux binary runs")
-}
+mod common;
+use common::{fails, run};
 
 /// Runs a glossy solve of `scene` with small settings and returns its JSON.
 fn glossy(scene: &str, extra: &[&str], cwd: &Path, name: &str) -> Result<Value> {
@@ -47,16 +39,6 @@ fn glossy(scene: &str, extra: &[&str], cwd: &Path, name: &str) -> Result<Value> 
         String::from_utf8_lossy(&out.stderr)
     );
     Ok(serde_json::from_str(&std::fs::read_to_string(&json)?)?)
-}
-
-fn fails(args: &[&str], cwd: &Path, needle: &str) {
-    let out = run(args, cwd);
-    assert!(!out.status.success(), "wavelux {args:?} should fail");
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains(needle),
-        "stderr of {args:?} lacks {needle:?}: {err}"
-    );
 }
 
 /// Two parallel `a × b` rectangles at distance `c`: a receiver (`receiver` material

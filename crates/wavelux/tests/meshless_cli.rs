@@ -2,29 +2,16 @@
 //! across frames, and each warning of a meshless run is printed once.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 use anyhow::{Context, Result};
 use serde_json::Value;
 
-const EXE: &str = env!("CARGO_BIN_EXE_wavelux");
+mod common;
+use common::{run, succeeds};
 
-fn run(args: &[&str], cwd: &Path) -> Output {
-    Command::new(EXE)
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the wavelux binary runs")
-}
-
+/// Runs `wavelux ARGS` in `cwd`, which must succeed; returns its stderr (its warnings).
 fn ok(args: &[&str], cwd: &Path) -> Result<String> {
-    let out = run(args, cwd);
-    anyhow::ensure!(
-        out.status.success(),
-        "wavelux {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    Ok(String::from_utf8_lossy(&out.stderr).into_owned())
+    Ok(String::from_utf8_lossy(&succeeds(args, cwd)?.stderr).into_owned())
 }
 
 /// Small meshless settings shared by the tests (a few seconds in the dev profile).
