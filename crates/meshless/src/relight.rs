@@ -67,7 +67,9 @@ pub struct PrecomputeStats {
     pub bounce_ms: f64,
     /// Total (ms).
     pub total_ms: f64,
-    /// Non-fatal problems (ignored media, Ward lobes, emitters that cannot be sampled).
+    /// Non-fatal problems (ignored media, Ward lobes, emitters that cannot be sampled);
+    /// left out of the serialized form when empty.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
 }
 

@@ -105,6 +105,17 @@ fn relight_is_linear_in_the_lights_across_frames() -> Result<()> {
     Ok(())
 }
 
+/// The first value under `key` anywhere in `v` (depth first).
+fn find_key<'a>(v: &'a Value, key: &str) -> Option<&'a Value> {
+    match v {
+        Value::Object(m) => m
+            .get(key)
+            .or_else(|| m.values().find_map(|x| find_key(x, key))),
+        Value::Array(a) => a.iter().find_map(|x| find_key(x, key)),
+        _ => None,
+    }
+}
+
 /// A closed box with a Ward floor, a participating medium, a sphere emitter (which the
 /// meshless direct lighting cannot sample) beside a parallelogram one and a point light: `solve --method meshless`
 /// and `relight` each print every warning once (the precomputation's own notes on
@@ -182,6 +193,10 @@ shape = { type = "parallelogram", origin = [0.4, 0.4, 0.99], edge_u = [0, 0.2, 0
         let err = ok(&args, d)?;
         let v: Value = serde_json::from_str(&std::fs::read_to_string(d.join(json))?)?;
         let warned = v["warnings"].as_array().context("warnings")?;
+        // The precomputation's statistics do not repeat them.
+        let pre = find_key(&v, "precompute").context("precompute statistics")?;
+        assert!(pre.is_object(), "{args:?}: {pre}");
+        assert!(pre.get("warnings").is_none(), "{args:?}: {pre}");
         let elements: Vec<&str> = warned
             .iter()
             .map(|w| w["element"].as_str().unwrap_or("?"))

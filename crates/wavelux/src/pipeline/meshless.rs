@@ -11,7 +11,8 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use wavelux::meshless::{
-    CpuBackend, DirectLighting, MeshlessConfig, Precomputed, Relighter, SceneSurfaces, scene_hash,
+    CpuBackend, DirectLighting, MeshlessConfig, PrecomputeStats, Precomputed, Relighter,
+    SceneSurfaces, scene_hash,
 };
 use wavelux::render::{Component, IndirectSource, MeshlessField, RenderOptions};
 use wavelux::scene::Scene;
@@ -181,7 +182,7 @@ impl Method for Meshless {
             transfer_loaded: loaded,
             backend: relighter.backend_name(),
             frame: indirect.times,
-            precompute: pre.stats.clone(),
+            precompute: reported_stats(&pre),
             scene_hash: format!("{:016x}", pre.scene_hash),
         });
         Ok(Outcome {
@@ -261,10 +262,19 @@ pub fn precompute(
         pb.set_message(format!("meshless {phase} {done}/{total}"));
     })?;
     pb.finish_and_clear();
-    // `pre.stats.warnings` repeats what `warnings::unmodelled` and
-    // [`unsampled_emitters`] already report once, with file and element.
     if let Some(path) = &a.meshless.transfer {
         pre.save(path)?;
     }
     Ok((pre, false))
+}
+
+/// The precomputation's statistics as the JSON reports them: without
+/// `pre.stats.warnings`, which repeat what `warnings::unmodelled` and
+/// [`unsampled_emitters`] already report once, with file and element, in the run's
+/// top-level `warnings`.
+pub(super) fn reported_stats(pre: &Precomputed) -> PrecomputeStats {
+    PrecomputeStats {
+        warnings: Vec::new(),
+        ..pre.stats.clone()
+    }
 }

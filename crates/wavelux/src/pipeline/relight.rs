@@ -179,7 +179,7 @@ pub fn run(r: &RelightArgs) -> anyhow::Result<()> {
         "seed": a.seed,
         "transfer_loaded": loaded,
         "backend": relighter.backend_name(),
-        "precompute": pre.stats,
+        "precompute": super::meshless::reported_stats(&pre),
         "precompute_s": precompute_s,
         "runtime_bytes": pre.runtime_bytes(),
         "warnings": warned,
