@@ -18,7 +18,10 @@ use super::meshless_common::{
 use crate::plot::{Axis, Series, Style, xy_plot};
 use crate::report::{Figure, Report, Row, Table, Tolerance};
 use crate::reproduce::Ctx;
-use wavelux::meshless::{CpuBackend, MeshlessConfig, Precomputed, Relighter, SceneSurfaces};
+use wavelux::meshless::{
+    CpuBackend, MeshlessConfig, Precomputed, Relighter, SceneSurfaces, SurfaceQuery,
+};
+use wavelux::param::glam::DVec3;
 use wavelux::render::PathTracer;
 use wavelux::scene::Scene;
 
@@ -57,15 +60,43 @@ const FULL: Sizes = Sizes {
     gather_rays: 128,
     emitter_samples: 64,
     points: 1000,
-    paths: 4096,
+    paths: 16384,
     r_sweep: [0.136, 0.096, 0.068],
     r_eps: 0.068,
     dense_levels: 3,
     dense_r: 0.136,
 };
 
-/// The ε of the sweep, largest first (issue 15: 0.1 … 0.005).
-const EPS: [f64; 5] = [0.1, 0.05, 0.025, 0.01, 0.005];
+/// The ε of the sweep, largest first (issue 15: 0.1 … 0.005; 0.0025 is ours: what the
+/// 5 % target costs with the seed's threshold).
+const EPS: [f64; 6] = [0.1, 0.05, 0.025, 0.01, 0.005, 0.0025];
+
+/// Bands of distance (m) from a point to the nearest face of the box's bounding box
+/// other than its own plane (the walls, floor, ceiling and the open front).
+const EDGE_BANDS: [(&str, f64, f64); 3] = [
+    ("within 1.5 cm of another face of the box", -1.0, 0.015),
+    ("1.5–7 cm from another face of the box", 0.015, 0.07),
+    (
+        "over 7 cm from every other face of the box",
+        0.07,
+        f64::INFINITY,
+    ),
+];
+
+/// Distance from a point to the nearest face of the box `[lo, hi]` other than the
+/// plane it lies on (the axis of its normal's largest component).
+fn face_distance((x, n): ViewPoint, lo: DVec3, hi: DVec3) -> f64 {
+    let own = n.abs().max_position();
+    (0..3)
+        .filter(|&a| a != own)
+        .map(|a| (x[a] - lo[a]).abs().min((hi[a] - x[a]).abs()))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Values as an exact (zero-error) reference for [`relative_l1`].
+fn exact_ref(v: &[[f64; 3]]) -> Vec<([f64; 3], [f64; 3])> {
+    v.iter().map(|&m| (m, [0.0; 3])).collect()
+}
 
 /// Bounces of the runs: the path-traced reference has them all, and with the Cornell
 /// box's reflectances the paper's four leave ~6 % of the indirect energy out (the
@@ -87,6 +118,7 @@ fn config(s: &Sizes, r: f64, eps: f64) -> MeshlessConfig {
 }
 
 /// One precomputation, relit by the scene's own lighting, measured at the points.
+#[derive(Clone)]
 struct Run {
     receivers: usize,
     senders: usize,
@@ -97,6 +129,8 @@ struct Run {
     computed: usize,
     l1: f64,
     energy: f64,
+    /// Ours at the points.
+    ours: Vec<[f64; 3]>,
 }
 
 fn run_one(
@@ -122,6 +156,7 @@ fn run_one(
         computed: pre.stats.refine.levels.iter().map(|l| l.computed).sum(),
         l1,
         energy: energy_ratio(&ours, reference),
+        ours,
     };
     drop(ind);
     Ok((run, pre))
@@ -201,7 +236,10 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         {:.2} %, is included in every error). Point sweep: R_coarse ∈ {:?} m at ε = 0.005; \
         ε sweep at R_coarse = {} m; dense comparison: a one-level basis at the finest \
         spacing of a {}-level hierarchy, ε = 0 (every link kept), one bounce, against \
-        the hierarchy at ε = 0.005, one bounce. Reduced sizes (levels, gather rays, \
+        the hierarchy at ε = 0.005, one bounce. What bounds the error target (ours): the \
+        same configuration with a second seed (point placement and gather strata), and \
+        its error split by the points' distance to the box's other faces (walls, floor, \
+        ceiling, open front). Reduced sizes (levels, gather rays, \
         points) are ours, for the shared 2-core machine; the quick run is smaller still.",
         points.len(),
         s.paths,
@@ -314,17 +352,23 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         .comment("the error falls as R_coarse shrinks"),
     );
 
-    // ε sweep.
+    // ε sweep (the point sweep's finest run is the same configuration at ε = 0.005:
+    // the precomputation is deterministic, so it is reused).
     let mut eps_runs = Vec::new();
     for &eps in &EPS {
-        let (run, _) = run_one(
-            &scene,
-            &query,
-            &config(s, s.r_eps, eps),
-            s,
-            &points,
-            &reference,
-        )?;
+        let run = if eps == 0.005 && s.r_eps == s.r_sweep[2] {
+            sweep[2].clone()
+        } else {
+            run_one(
+                &scene,
+                &query,
+                &config(s, s.r_eps, eps),
+                s,
+                &points,
+                &reference,
+            )?
+            .0
+        };
         table.push(run_row(
             format!("R_coarse = {} m, ε = {eps}", s.r_eps),
             &run,
@@ -374,6 +418,74 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         eps_runs[4].receivers
     ));
     r.rows.push(target);
+    // What bounds it: the same configuration with another seed (point placement and
+    // gather strata), and the error by distance to the box's other faces.
+    {
+        let cfg = MeshlessConfig {
+            seed: 2,
+            ..config(s, s.r_eps, 0.005)
+        };
+        let (run, _) = run_one(&scene, &query, &cfg, s, &points, &reference)?;
+        r.rows.push(
+            Row::new(
+                "indirect relative L1 vs path tracer, ε = 0.005, seed 2 (point placement, gather strata)",
+                None,
+                run.l1,
+                "",
+                Tolerance::Info,
+            )
+            .comment(format!(
+                "energy {:.3}; {} receivers; the two seeds' solutions differ by {:.2} % (relative L1)",
+                run.energy,
+                run.receivers,
+                100.0 * relative_l1(&run.ours, &exact_ref(&eps_runs[4].ours)).0
+            )),
+        );
+        table.push(run_row(
+            format!("R_coarse = {} m, ε = 0.005, seed 2", s.r_eps),
+            &run,
+        ));
+    }
+    let (lo, hi) = query.bounds();
+    for (band, a, b) in EDGE_BANDS {
+        let keep: Vec<usize> = (0..points.len())
+            .filter(|&k| {
+                let d = face_distance(points[k], lo, hi);
+                d > a && d <= b
+            })
+            .collect();
+        let ours: Vec<[f64; 3]> = keep.iter().map(|&k| eps_runs[4].ours[k]).collect();
+        let refs: Vec<([f64; 3], [f64; 3])> = keep.iter().map(|&k| reference[k]).collect();
+        let (l1, fl) = relative_l1(&ours, &refs);
+        r.rows.push(
+            Row::new(
+                format!("indirect relative L1, ε = 0.005, points {band}"),
+                None,
+                l1,
+                "",
+                Tolerance::Info,
+            )
+            .comment(format!(
+                "{} points; ours / reference energy {:.3}; reference noise floor there {:.2} %",
+                keep.len(),
+                energy_ratio(&ours, &refs),
+                100.0 * fl
+            )),
+        );
+    }
+    r.rows.push(
+        Row::new(
+            "indirect relative L1 vs path tracer, Cornell box, ε = 0.0025",
+            None,
+            eps_runs[5].l1,
+            "",
+            Tolerance::Info,
+        )
+        .comment(format!(
+            "{} links in T, precompute {:.1} s (ε = 0.005: {}, {:.1} s)",
+            eps_runs[5].t_links, eps_runs[5].seconds, eps_runs[4].t_links, eps_runs[4].seconds
+        )),
+    );
 
     // Where the energy goes at ε = 0.005: the paper's four bounces with the crate's
     // default bounce threshold.
@@ -435,11 +547,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     let hi = Relighter::new(&hier_pre, CpuBackend)?.relight_with(&query, &direct)?;
     let de = Relighter::new(&dense_pre, CpuBackend)?.relight_with(&query, &direct)?;
     let hi_v = at_points(&hi, &points);
-    let de_v: Vec<([f64; 3], [f64; 3])> = at_points(&de, &points)
-        .into_iter()
-        .map(|v| (v, [0.0; 3]))
-        .collect();
-    let (hd, _) = relative_l1(&hi_v, &de_v);
+    let (hd, _) = relative_l1(&hi_v, &exact_ref(&at_points(&de, &points)));
     r.rows.push(
         Row::new(
             "dense / hierarchical refinement time at equal finest points",
