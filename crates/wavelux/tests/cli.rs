@@ -115,38 +115,81 @@ fn default_cornell_run_writes_exr_png_json() -> Result<()> {
     Ok(())
 }
 
-/// The solver's surface averages against the path tracer run through the binary:
-/// `|B − B_mc| ≤ 4σ + 25 %·B_mc` per surface and channel at these very coarse settings
-/// (level 2), and the two estimators agree to 8 % area-weighted.
+/// Checks a solve's JSON against an independent `--method reference` JSON with bounds
+/// derived from what the solve prints (see `cornell_json_agrees_with_the_reference`);
+/// returns the area-weighted relative L1 of the reflected part.
+fn agrees_with_its_printed_error(sol: &Value, refr: &Value, ref_samples: f64) -> Result<f64> {
+    let est = &sol["error_estimate"];
+    let printed = est["relative_l1"].as_f64().context("relative_l1")?;
+    let check_noise = est["check_noise"].as_f64().context("check_noise")?;
+    let max_z = est["max_z"].as_f64().context("max_z")?;
+    let check_samples = est["samples"].as_f64().context("samples")?;
+    let scale = (ref_samples / check_samples).sqrt();
+    let (mut num, mut den, mut noise) = (0.0, 0.0, 0.0);
+    for s in refr["surfaces"].as_array().context("surfaces")? {
+        let name = s["name"].as_str().context("name")?;
+        let b = radiosity(sol, name);
+        let area = s["area"].as_f64().context("area")?;
+        for c in 0..3 {
+            let m = s["radiosity"][c].as_f64().context("r")?;
+            let e = s["emission"][c].as_f64().context("e")?;
+            let se = s["std_error"][c].as_f64().context("se")?;
+            let bound = (max_z + 4.0) * scale * se + 4.0 * se;
+            assert!(
+                (b[c] - m).abs() <= bound,
+                "{name} {c}: {} vs {m} ± {se} (bound {bound}: printed max |z| {max_z})",
+                b[c]
+            );
+            num += area * (b[c] - m).abs();
+            den += area * (m - e).abs();
+            noise += area * se;
+        }
+    }
+    let (l1, ref_noise) = (num / den, noise / den);
+    assert!(
+        l1 <= printed + 2.0 * (check_noise + ref_noise),
+        "relative L1 {l1} against the reference; printed {printed} (noise {check_noise}), \
+         reference noise {ref_noise}"
+    );
+    Ok(l1)
+}
+
+/// The gathering solve's surface averages (FAST settings) against an independent path-traced reference
+/// (6,000 samples per surface, seed 7) run through the binary, with bounds derived from
+/// what the run itself prints (its stated accuracy), not from today's error:
+/// - per surface and channel, `|B − B_ref| ≤ (max_z + 4) σ_chk + 4 σ_ref`: the run's
+///   own check says `|B − B̂_chk| ≤ max_z · σ_chk`, the check is within `4 σ_chk` of the
+///   truth and the reference within `4 σ_ref`; `σ_chk = σ_ref √(n_ref / n_chk)` (the
+///   same estimator of the same surface at the check's `n_chk` samples, printed as
+///   `error_estimate.samples`);
+/// - area-weighted relative L1 (reflected part, as printed) at most the printed error
+///   plus twice both checks' noise floors: by the triangle inequality the two L1 values
+///   differ by at most the L1 between the checks, whose expectation is
+///   `≈ 0.8 √(n₁² + n₂²) < n₁ + n₂`.
+///
+/// A run whose printed error or `max |z|` understates its difference from the path
+/// tracer fails; whether the default is accurate enough is the `default-bias`
+/// reproduction's question (issue 13 §2).
 #[test]
 fn cornell_json_agrees_with_the_reference() -> Result<()> {
     let dir = tempfile::tempdir()?;
     let sol = solve_json("builtin:cornell-box", &["--no-image"], dir.path(), "sol")?;
     let refr = solve_json(
         "builtin:cornell-box",
-        &["--no-image", "--method", "reference", "--samples", "6000"],
+        &[
+            "--no-image",
+            "--method",
+            "reference",
+            "--samples",
+            "6000",
+            "--seed",
+            "7",
+        ],
         dir.path(),
         "ref",
     )?;
     assert_eq!(refr["method"]["name"], "reference");
-    let (mut num, mut den) = (0.0, 0.0);
-    for s in refr["surfaces"].as_array().context("surfaces")? {
-        let name = s["name"].as_str().context("name")?;
-        let b = radiosity(&sol, name);
-        let area = s["area"].as_f64().context("area")?;
-        for c in 0..3 {
-            let m = s["radiosity"][c].as_f64().context("r")?;
-            let se = s["std_error"][c].as_f64().context("se")?;
-            assert!(
-                (b[c] - m).abs() <= 4.0 * se + 0.25 * m,
-                "{name} {c}: {} vs {m} ± {se}",
-                b[c]
-            );
-            num += area * (b[c] - m).abs();
-            den += area * m;
-        }
-    }
-    assert!(num / den < 0.08, "relative L1 {}", num / den);
+    let l1 = agrees_with_its_printed_error(&sol, &refr, 6000.0)?;
     // compare reports the same kind of number.
     let out = ok(
         &["compare", "sol.json", "ref.json", "--json", "cmp.json"],
@@ -154,7 +197,11 @@ fn cornell_json_agrees_with_the_reference() -> Result<()> {
     )?;
     assert!(out.contains("relative L1"));
     let cmp: Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("cmp.json"))?)?;
-    assert!(cmp["relative_l1"].as_f64().context("l1")? < 0.08);
+    let cmp_l1 = cmp["relative_l1"].as_f64().context("l1")?;
+    assert!(
+        (cmp_l1 - l1).abs() <= 1e-9 * l1,
+        "compare's L1 {cmp_l1} vs this test's {l1}"
+    );
     Ok(())
 }
 
@@ -573,9 +620,9 @@ fn gltf_export_and_lightmaps() -> Result<()> {
 /// the same solver (identical JSON radiosities), the white furnace gives `2 ± 1 %`
 /// (`--convergence 0.9999` leaves 0.01 % of the power unshot), the shooting statistics
 /// are consistent, and on Ziegler's occluded scene the per-surface averages agree with
-/// the path tracer within the bounds the gathering test uses on the Cornell box
-/// (`4σ + 25 %` per surface, `8 %` area-weighted; measured 4.0 % at these coarse
-/// settings, the same as gathering's 4.2 %). The Cornell box is not shot here: the
+/// an independent path-traced reference within the bounds derived from the run's own
+/// printed error and max |z| (`agrees_with_its_printed_error`, as the gathering test
+/// on the Cornell box). The Cornell box is not shot here: the
 /// shooting solver needs ~20 CPU-seconds for it even at level 2 in the test profile.
 #[test]
 fn shoot_and_southwell_match_the_furnace_and_the_reference() -> Result<()> {
@@ -626,28 +673,19 @@ fn shoot_and_southwell_match_the_furnace_and_the_reference() -> Result<()> {
     )?;
     let refr = solve_json(
         "builtin:ziegler-occluded",
-        &["--no-image", "--method", "reference", "--samples", "20000"],
+        &[
+            "--no-image",
+            "--method",
+            "reference",
+            "--samples",
+            "20000",
+            "--seed",
+            "7",
+        ],
         d,
         "occluded-ref",
     )?;
-    let (mut num, mut den) = (0.0, 0.0);
-    for s in refr["surfaces"].as_array().context("surfaces")? {
-        let name = s["name"].as_str().context("name")?;
-        let b = radiosity(&sol, name);
-        let area = s["area"].as_f64().context("area")?;
-        for c in 0..3 {
-            let m = s["radiosity"][c].as_f64().context("r")?;
-            let se = s["std_error"][c].as_f64().context("se")?;
-            assert!(
-                (b[c] - m).abs() <= 4.0 * se + 0.25 * m,
-                "{name} {c}: {} vs {m} ± {se}",
-                b[c]
-            );
-            num += area * (b[c] - m).abs();
-            den += area * m;
-        }
-    }
-    assert!(num / den < 0.08, "relative L1 {}", num / den);
+    agrees_with_its_printed_error(&sol, &refr, 20000.0)?;
     Ok(())
 }
 
