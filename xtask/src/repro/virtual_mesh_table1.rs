@@ -44,11 +44,14 @@ const QUANTITIES: [Quantity; 5] = [
 /// The solver settings shared by both runs (the paper: "same minimum subdivision size
 /// and subdivision oracle threshold").
 /// Quick mode (CI) stops at 50 % and one level so that both solves take seconds; its
-/// ratios describe the first shots only.
+/// ratios describe the first shots only. Full mode stops at 90 %, not the paper's 99 %:
+/// at 90 % the tessellated hall already needs 84 shots and ~1,000 s here (session 21,
+/// ≈ 12 s per shot on the loaded shared machine), and a 99 % run of it, stopped after
+/// 16 minutes in session 23, had not finished; 99 % is unmeasured.
 fn config(quick: bool) -> ShootConfig {
     ShootConfig {
         basis: BasisKind::Haar,
-        convergence: if quick { 0.5 } else { 0.99 },
+        convergence: if quick { 0.5 } else { 0.90 },
         eps: 1e-1,
         max_level: if quick { 1 } else { 2 },
         min_area: 1e-3,
@@ -126,13 +129,17 @@ ratios complex/simple of every column with the paper's; the input-primitive rati
 construction and reported only; the absolute values are context (different scene, machine and \
 memory measure). Memory is the solver's byte count (`Statistics::bytes`). Deviation: the hall \
 is small ({} input primitives against the opera's 17,272) so that both solves fit in minutes on \
-this shared 2-core machine; `opera_hall(100, 14)` would be of the opera's size.",
+this shared 2-core machine; `opera_hall(100, 14)` would be of the opera's size. Deviation: \
+{} % convergence instead of the paper's 99 %: the tessellated hall needed 84 shots and ~1,000 s \
+to reach 90 % here (session 21), and a 99 % run stopped after 16 minutes (session 23) had not \
+finished, so the paper's setting is unmeasured.",
             simple.input_primitives as f64 / virt.input_primitives as f64,
             cfg.eps,
             cfg.max_level,
             cfg.min_area,
             cfg.convergence * 100.0,
-            virt.input_primitives
+            virt.input_primitives,
+            cfg.convergence * 100.0,
         ),
         ..Report::default()
     };
