@@ -14,8 +14,10 @@
 //! teapot, its chess set: ours are reconstructions, see each report) and another
 //! machine, with no repeat or spread; a factor 2 is our judgment of how far a
 //! reconstruction may move a ratio while still reproducing the claim (e.g. "halves the
-//! time" stays below 1). Wall-time ratios measured here also move by up to ~1.7×
-//! between runs on the shared machine (meshless-table1's 1.22 vs 0.71, session 21).
+//! time" stays below 1). Wall-time ratios measured here also move by up to ~3×
+//! between runs on the shared machine (Table 3's natural 5×5 / constant: 3.07 in
+//! session 21, 1.08 in session 23 at load ~16, where the runs got ~10 % of a core);
+//! per-run CPU time would remove most of that (not yet measured).
 
 use std::time::Instant;
 
