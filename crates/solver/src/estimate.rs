@@ -145,6 +145,24 @@ pub struct ErrorEstimate {
     pub reflected_l1: [f64; 3],
     /// `∫_leaf Σ_c |e_c| dA` per leaf, in the order of `Hierarchy::leaves` (W).
     pub leaf_error: Vec<f64>,
+    /// `∫_leaf e_c dA` per leaf and channel (signed, W): the estimated error of the
+    /// leaf's mean times its real area, so that sums over the leaves of a face
+    /// estimate the error of the face's mean radiosity (`B − B_h`: positive when the
+    /// solution is too low).
+    pub leaf_mean_error: Vec<[f64; 3]>,
+    /// `∫_leaf Σ_c |B_h,c − E_c| dA` per leaf (W): the leaf's part of the normaliser,
+    /// so that per-face relative errors are `Σ leaf_error / Σ leaf_reflected`.
+    pub leaf_reflected: Vec<f64>,
+    /// `Σ_c ∫|e_c| dA` per patch (W): the sum of its leaves' [`Self::leaf_error`].
+    pub patch_error: Vec<f64>,
+    /// `Σ_c ∫|B_h,c − E_c| dA` per patch (W): the patch's part of the normaliser.
+    pub patch_reflected: Vec<f64>,
+    /// Real area of every patch (m²) as the residual points integrate it.
+    pub patch_area: Vec<f64>,
+    /// `Σ_c E_c · area` per patch (W): its emitted part, which
+    /// [`Self::patch_relative`] adds to the normaliser (an emitter's error is seen
+    /// against the radiosity it shows).
+    pub patch_emitted: Vec<f64>,
     /// Indicator `η_l = ∫_R ρ Σ_c |Δ_l,c| dA` per link, in the receiver order of the
     /// compiled hierarchy (W).
     pub link_error: Vec<f64>,
@@ -167,6 +185,54 @@ pub struct ErrorEstimate {
     pub unshadowed_links: u64,
     /// Wall time.
     pub time: Duration,
+}
+
+/// Faces darker than this fraction of the scene's mean reflected radiosity are judged
+/// relative to it instead of their own (a face that receives almost nothing has no
+/// meaningful relative error): [`ErrorEstimate::patch_relative`].
+pub const DARK_FACE: f64 = 0.01;
+
+impl ErrorEstimate {
+    /// The normaliser of every patch's relative error (W):
+    /// `max(patch_reflected + patch_emitted, DARK_FACE · D̄ · area)`, the radiosity
+    /// the face shows (an emitter's error is seen against its emission too), with
+    /// `D̄` the scene's mean reflected radiosity (`Σ reflected / Σ area` over patches
+    /// that reflect anything) as a floor for faces that receive almost nothing.
+    pub fn patch_normaliser(&self) -> Vec<f64> {
+        let (mut d, mut a) = (0.0, 0.0);
+        for (r, ar) in self.patch_reflected.iter().zip(&self.patch_area) {
+            if *r > 0.0 {
+                d += r;
+                a += ar;
+            }
+        }
+        let mean = if a > 0.0 { d / a } else { 0.0 };
+        (0..self.patch_error.len())
+            .map(|p| {
+                (self.patch_reflected[p] + self.patch_emitted[p])
+                    .max(DARK_FACE * mean * self.patch_area[p])
+            })
+            .collect()
+    }
+
+    /// Estimated relative L1 error of every patch (face side): `patch_error` over
+    /// [`Self::patch_normaliser`]; `0` for a patch with no points or no error.
+    pub fn patch_relative(&self) -> Vec<f64> {
+        self.patch_error
+            .iter()
+            .zip(self.patch_normaliser())
+            .map(|(e, den)| if *e > 0.0 && den > 0.0 { e / den } else { 0.0 })
+            .collect()
+    }
+
+    /// The patch with the largest [`Self::patch_relative`] error and that error
+    /// (`None` without patches).
+    pub fn worst_patch(&self) -> Option<(usize, f64)> {
+        self.patch_relative()
+            .into_iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
+    }
 }
 
 /// One residual point of a leaf.
@@ -481,6 +547,12 @@ pub fn estimate_cached(
     let mut est = ErrorEstimate {
         link_error: vec![0.0; h.link_count()],
         leaf_error: vec![0.0; h.leaves.len()],
+        leaf_mean_error: vec![[0.0; 3]; h.leaves.len()],
+        leaf_reflected: vec![0.0; h.leaves.len()],
+        patch_error: vec![0.0; patches.len()],
+        patch_reflected: vec![0.0; patches.len()],
+        patch_area: vec![0.0; patches.len()],
+        patch_emitted: vec![0.0; patches.len()],
         ..ErrorEstimate::default()
     };
     // Fine irradiance at every residual point, patch by patch (bounded memory).
@@ -669,9 +741,15 @@ pub fn estimate_cached(
                 est.residual_l1[c] += pt.wr * r.abs();
                 est.reflected_l1[c] += pt.wr * (bh[l][j][c] - patch.emission[c]).abs();
                 est.leaf_error[l] += pt.wr * e.abs();
+                est.leaf_mean_error[l][c] += pt.wr * e;
+                est.leaf_reflected[l] += pt.wr * (bh[l][j][c] - patch.emission[c]).abs();
             }
             est.points += 1;
+            est.patch_area[key.patch as usize] += pt.wr;
+            est.patch_emitted[key.patch as usize] += pt.wr * patch.emission.iter().sum::<f64>();
         }
+        est.patch_error[key.patch as usize] += est.leaf_error[l];
+        est.patch_reflected[key.patch as usize] += est.leaf_reflected[l];
     }
     let num: f64 = est.error_l1.iter().sum();
     let den: f64 = est.reflected_l1.iter().sum();

@@ -149,6 +149,46 @@ fn target_loop_reaches_the_target() {
     let meas = measured(&out.solution, fine, 64);
     println!("measured {meas:.4}");
     assert!(meas <= 2.0 * cfg.target, "measured {meas}");
+    // The per-face goal (the target itself by default) is reached too, and every
+    // face's measured error is within twice it.
+    let faces = out.estimate.patch_relative();
+    for (p, (&f, m)) in faces
+        .iter()
+        .zip(measured_per_patch(&out.solution, fine, 32))
+        .enumerate()
+    {
+        println!("patch {p}: estimate {f:.4} measured {m:.4}");
+        assert!(f <= cfg.target, "patch {p}: estimate {f}");
+        assert!(m <= 2.0 * cfg.target, "patch {p}: measured {m}");
+    }
+}
+
+/// Per patch, `Σ_c ∫|B_c − B_ref,c| / Σ_c ∫|B_ref,c|` on an `m × m` grid of cell
+/// centres (the error of the radiosity the face shows, relative to it; `0` for a
+/// patch that shows nothing).
+fn measured_per_patch(sol: &Solution, reference: &Solution, m: usize) -> Vec<f64> {
+    sol.patches
+        .iter()
+        .enumerate()
+        .map(|(pi, p)| {
+            let (mut num, mut den) = (0.0, 0.0);
+            for j in 0..m {
+                for i in 0..m {
+                    let (s, t) = ((i as f64 + 0.5) / m as f64, (j as f64 + 0.5) / m as f64);
+                    if !p.reflects() || !p.support.is_real(s, t) {
+                        continue;
+                    }
+                    let w = p.support.jacobian(s, t);
+                    let (b, r) = (sol.radiosity(pi, s, t), reference.radiosity(pi, s, t));
+                    for c in 0..3 {
+                        num += w * (b[c] - r[c]).abs();
+                        den += w * r[c].abs();
+                    }
+                }
+            }
+            if den > 0.0 { num / den } else { 0.0 }
+        })
+        .collect()
 }
 
 /// Results do not depend on the number of threads (bitwise).
@@ -170,6 +210,8 @@ fn estimate_is_independent_of_the_thread_count() {
     };
     let (a, b) = (run(1), run(3));
     assert_eq!(a.relative_l1.to_bits(), b.relative_l1.to_bits());
+    assert_eq!(a.patch_error, b.patch_error);
+    assert_eq!(a.leaf_mean_error, b.leaf_mean_error);
     assert_eq!(a.leaf_error, b.leaf_error);
     assert_eq!(a.link_error, b.link_error);
     assert_eq!(a.rays, b.rays);
@@ -226,6 +268,41 @@ fn cached_estimate_equals_a_fresh_one() {
     assert_eq!(other.reused_links, 0);
 }
 
+/// The per-leaf and per-patch parts add up to the whole: patch sums are the scene's
+/// error and normaliser, a leaf's signed error per channel is bounded by its absolute
+/// one, the patches' areas are their real areas, and the worst patch is the largest
+/// of the per-patch relative errors.
+#[test]
+fn per_face_parts_add_up_to_the_whole() {
+    let scene = builtin("ziegler-occluded").unwrap();
+    let prep = Prepared::new(&scene, &config(BasisKind::Multiwavelet(2), 1, 1e-2)).unwrap();
+    let sol = solve_prepared(&prep).unwrap();
+    let ctx = prep.transfer().unwrap();
+    let est = estimate(&ctx, &sol, &EstimateOptions::default()).unwrap();
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1e-300);
+    let err: f64 = est.error_l1.iter().sum();
+    let refl: f64 = est.reflected_l1.iter().sum();
+    assert!(close(est.patch_error.iter().sum(), err));
+    assert!(close(est.leaf_error.iter().sum(), err));
+    assert!(close(est.patch_reflected.iter().sum(), refl));
+    assert!(close(est.leaf_reflected.iter().sum(), refl));
+    for (m, e) in est.leaf_mean_error.iter().zip(&est.leaf_error) {
+        assert!(m.iter().map(|x| x.abs()).sum::<f64>() <= e * (1.0 + 1e-12));
+    }
+    for p in (0..sol.patches.len()).filter(|&p| sol.patches[p].reflects()) {
+        let (area, real) = (est.patch_area[p], sol.patch_real_integral(p).1);
+        assert!(
+            (area - real).abs() <= 1e-6 * real,
+            "patch {p}: area {area} vs {real}"
+        );
+    }
+    let (worst, rel) = est.worst_patch().unwrap();
+    let faces = est.patch_relative();
+    assert_eq!(faces[worst], rel);
+    assert!(faces.iter().all(|&f| f >= 0.0 && f <= rel));
+    assert!(rel > 0.0);
+}
+
 /// Bad options and configurations are typed errors naming the field.
 #[test]
 fn bad_options_are_typed_errors() {
@@ -255,6 +332,20 @@ fn bad_options_are_typed_errors() {
                 ..TargetConfig::default()
             },
             "bulk",
+        ),
+        (
+            TargetConfig {
+                face_target: Some(0.0),
+                ..TargetConfig::default()
+            },
+            "face_target",
+        ),
+        (
+            TargetConfig {
+                face_target: Some(f64::NAN),
+                ..TargetConfig::default()
+            },
+            "face_target",
         ),
         (
             TargetConfig {
