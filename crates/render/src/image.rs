@@ -424,17 +424,22 @@ impl Image {
         Ok(out)
     }
 
-    /// Pixel-to-pixel noise in flat regions: the root mean square over the pixels
-    /// marked in `flat` (each with its four neighbours inside the image) of the
-    /// relative second difference of the luminance,
-    /// `(|L(x−1) − 2L(x) + L(x+1)|² + |L(y−1) − 2L(y) + L(y+1)|²) / (2 · 6 L(x)²)`.
-    /// For independent per-pixel noise of relative standard deviation `σ` each term's
-    /// expectation is `σ²` (a second difference has variance `6σ²`), while a smooth
-    /// image contributes only its curvature. `None` if no marked pixel qualifies.
+    /// Pixel-to-pixel noise in flat regions: over the pixels marked in `flat` (each
+    /// with its four neighbours inside the image), the ratio of the power of the
+    /// luminance's second differences to the power of the luminance,
+    /// `√( Σ (|L(x−1) − 2L(x) + L(x+1)|² + |L(y−1) − 2L(y) + L(y+1)|²) / Σ 12 L(x)² )`.
+    /// For independent per-pixel noise of relative standard deviation `σ` the
+    /// numerator's expectation is `12 σ² Σ L²` (a second difference has variance
+    /// `6σ²L²`), so the result is `σ` — a relative deviation — while a smooth image
+    /// contributes only its curvature. The sums are taken before the division so that
+    /// each pixel weighs by its brightness: a near-black pixel (whose relative
+    /// deviation is invisible and, divided by its own `L²`, would dominate a mean of
+    /// per-pixel ratios) adds almost nothing. `None` if no marked pixel qualifies
+    /// (positive luminance).
     pub fn flat_noise(&self, flat: &[bool]) -> Option<f64> {
         let (w, h) = (self.width, self.height);
         let lum = |x: usize, y: usize| luminance(self.pixels[y * w + x]);
-        let (mut acc, mut n) = (0.0, 0usize);
+        let (mut noise, mut signal) = (0.0, 0.0);
         for y in 1..h.saturating_sub(1) {
             for x in 1..w.saturating_sub(1) {
                 if !flat.get(y * w + x).copied().unwrap_or(false) {
@@ -447,11 +452,11 @@ impl Image {
                 }
                 let dx = lum(x - 1, y) - 2.0 * l + lum(x + 1, y);
                 let dy = lum(x, y - 1) - 2.0 * l + lum(x, y + 1);
-                acc += (dx * dx + dy * dy) / (12.0 * l * l);
-                n += 1;
+                noise += dx * dx + dy * dy;
+                signal += 12.0 * l * l;
             }
         }
-        (n > 0).then(|| (acc / n as f64).sqrt())
+        (signal > 0.0).then(|| (noise / signal).sqrt())
     }
 
     fn check_size(&self, o: &Image) -> Result<(), RenderError> {
