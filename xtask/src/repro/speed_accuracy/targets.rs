@@ -25,7 +25,9 @@ use crate::repro::release_binary::run_wavelux;
 use crate::reproduce::Ctx;
 
 fn is_solver(p: &&Point) -> bool {
-    p.method.starts_with("gather") || p.method.starts_with("shoot")
+    p.method.starts_with("gather")
+        || p.method.starts_with("shoot")
+        || p.method.starts_with("target-error")
 }
 
 fn target(quick: bool, t: Tolerance) -> Tolerance {
@@ -201,9 +203,10 @@ fn default_command(cb: &SceneResult, report: &mut Report) -> anyhow::Result<()> 
             Tolerance::AtMost(0.005),
         )
         .comment(format!(
-            "RMS relative second difference of the luminance over flat pixels \
-(`Image::flat_noise` over `PathTracer::flat_pixels`: 5×5 neighbourhoods on one primitive \
-side, wholly lit or wholly shadowed){}",
+            "relative second difference of the luminance over flat pixels, as noise power \
+over signal power (`Image::flat_noise` over `PathTracer::flat_pixels`: 5×5 neighbourhoods \
+on one primitive side, wholly lit or wholly shadowed; each pixel weighs by its brightness, \
+so near-black pixels do not dominate){}",
             missed_by(noise, 0.005)
         )),
     );
