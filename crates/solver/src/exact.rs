@@ -87,33 +87,11 @@ impl Piece {
 }
 
 /// The exact polygon of a node of a parallelogram or triangle support,
-/// counter-clockwise about the support's normal, collapsed corners removed.
+/// counter-clockwise about the support's normal, collapsed corners removed
+/// ([`wavelux_support::Support::cell_polygon`], which the glossy transport and the
+/// shafts use too).
 pub fn node_polygon(p: &Patch, r: &Region) -> Option<Vec<DVec3>> {
-    if !matches!(
-        p.support.map,
-        SupportMap::Parallelogram { .. } | SupportMap::Triangle { .. }
-    ) {
-        return None;
-    }
-    let c = p.support.corners(r.s0, r.t0, r.h);
-    let (_, rad) = p.support.bounding_sphere(r.s0, r.t0, r.h);
-    let tol = 1e-12 * rad.max(f64::MIN_POSITIVE);
-    let mut poly: Vec<DVec3> = Vec::with_capacity(4);
-    for v in c {
-        if poly.last().is_none_or(|l: &DVec3| (*l - v).length() > tol) {
-            poly.push(v);
-        }
-    }
-    while poly.len() > 1 && (poly[0] - poly[poly.len() - 1]).length() <= tol {
-        poly.pop();
-    }
-    if poly.len() < 3 {
-        return None;
-    }
-    if newell(&poly).dot(p.support.normal) < 0.0 {
-        poly.reverse();
-    }
-    Some(poly)
+    p.support.cell_polygon(r.s0, r.t0, r.h)
 }
 
 /// The piece of node `g` of patch `p`. As an emitter (`real_only`) a node of a virtual

@@ -479,19 +479,14 @@ impl Support {
                 poly.push(v);
             }
         }
-        if poly.len() > 1 && (poly[0] - poly[poly.len() - 1]).length() <= tol {
+        while poly.len() > 1 && (poly[0] - poly[poly.len() - 1]).length() <= tol {
             poly.pop();
         }
         if poly.len() < 3 {
             return None;
         }
-        // Orientation from the polygon's (Newell) normal.
-        let mut n = DVec3::ZERO;
-        for (i, a) in poly.iter().enumerate() {
-            let b = poly[(i + 1) % poly.len()];
-            n += a.cross(b);
-        }
-        if n.dot(self.normal) < 0.0 {
+        // Orientation from the polygon's Newell normal (taken about its first corner).
+        if wavelux_geometry::formfactor::newell(&poly).dot(self.normal) < 0.0 {
             poly.reverse();
         }
         Some(poly)
