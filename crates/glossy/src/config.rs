@@ -2,6 +2,7 @@
 
 use crate::directions::DirectionKind;
 use crate::error::{GlossyError, invalid};
+use crate::nonstandard::Decomposition;
 use crate::patch::ImportanceSource;
 use crate::solve::LinearSolver;
 use crate::transport::TransportOptions;
@@ -38,8 +39,12 @@ pub struct GlossyConfig {
     pub variant: WardVariant,
     /// Hemisphere ↔ square map (default the paper's).
     pub directions: DirectionKind,
-    /// Linear solver (default Gauss–Seidel).
+    /// Linear solver (default Gauss–Seidel; standard decomposition only).
     pub solver: LinearSolver,
+    /// Operator decomposition (default the paper's standard one; the non-standard one
+    /// iterates push–gather–pull Picard sweeps whatever `solver` says, and needs
+    /// importance off).
+    pub decomposition: Decomposition,
     /// Relative change (or GMRES residual) that ends a solve (default `1e-6`).
     pub tolerance: f64,
     /// Iteration cap per solve (default 500).
@@ -81,6 +86,7 @@ impl Default for GlossyConfig {
             variant: WardVariant::Bounded,
             directions: DirectionKind::Glossy,
             solver: LinearSolver::GaussSeidel,
+            decomposition: Decomposition::Standard,
             tolerance: 1e-6,
             max_iterations: 500,
             rounds: 4,
@@ -110,6 +116,14 @@ impl GlossyConfig {
             return Err(invalid(
                 "tolerance",
                 format!("{} must be finite and >= 0", self.tolerance),
+            ));
+        }
+        if self.decomposition == Decomposition::NonStandard
+            && !matches!(self.importance, ImportanceSource::Off)
+        {
+            return Err(invalid(
+                "decomposition",
+                "the non-standard decomposition supports importance off only",
             ));
         }
         if self.max_iterations == 0 {

@@ -22,6 +22,7 @@
 //! - [`emission`]: up-front decomposition of emitters and the eye's importance;
 //! - [`transport`]: transport coefficients by eq. (5);
 //! - [`link`]: links and their indices;
+//! - [`nonstandard`]: the non-standard decomposition (scaling links, push/pull, §3.5);
 //! - [`solve`]: Gauss–Seidel, Picard and GMRES on the links;
 //! - [`refine`]: candidates, oracle values, importance arriving at supports, rebuild;
 //! - [`solution`]: the solver loop, evaluation, exitance, final gather, images;
@@ -37,6 +38,7 @@ pub mod directions;
 pub mod emission;
 pub mod error;
 pub mod link;
+pub mod nonstandard;
 pub mod patch;
 pub mod refine;
 pub mod solution;
@@ -54,6 +56,7 @@ pub(crate) fn positive(x: f64) -> bool {
 }
 pub use directions::DirectionKind;
 pub use error::GlossyError;
+pub use nonstandard::Decomposition;
 pub use patch::{GlossyScene, ImportanceSource, Patch};
 pub use solution::{GlossySolution, GlossyStats, RoundStats};
 pub use solve::LinearSolver;

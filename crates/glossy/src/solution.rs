@@ -22,6 +22,7 @@ use crate::directions::{CellRule, integrate_cell};
 use crate::emission::project_emission;
 use crate::error::GlossyError;
 use crate::link::{Link, LinkSet};
+use crate::nonstandard::{self, Decomposition, ScalingLink};
 use crate::patch::{GlossyScene, ImportanceSource};
 use crate::refine::{self, Candidate, mix, node_stream};
 use crate::solve::{SolveRecord, solve};
@@ -122,8 +123,10 @@ pub struct GlossySolution {
     pub config: GlossyConfig,
     /// Trees and coefficients.
     pub funcs: Functions,
-    /// Links.
+    /// Links (standard decomposition).
     pub links: LinkSet,
+    /// Scaling links (non-standard decomposition; empty otherwise).
+    pub scaling: Vec<ScalingLink>,
     dead: HashSet<(u32, u32, NodeKey, bool)>,
     haar: HaarStep,
     /// Counts, costs and times.
@@ -148,6 +151,17 @@ fn to_link(v: &LinkValues, sender: u32, recv_patch: u32, recv_node: u32, recv_ph
         phiphi: v.phiphi.map(|x| x as f32),
         variation: v.variation as f32,
         masks: v.masks,
+    }
+}
+
+fn scaling_link(v: &LinkValues, recv: (u32, u32), send: (u32, u32)) -> ScalingLink {
+    ScalingLink {
+        recv_patch: recv.0,
+        recv_node: recv.1,
+        send_patch: send.0,
+        send_node: send.1,
+        t: v.phiphi.map(|x| x as f32),
+        variation: v.variation as f32,
     }
 }
 
@@ -183,6 +197,7 @@ impl GlossySolution {
             config,
             funcs,
             links: LinkSet::default(),
+            scaling: Vec::new(),
             dead: HashSet::new(),
             haar: HaarStep::new(),
             stats: GlossyStats::default(),
@@ -290,8 +305,13 @@ impl GlossySolution {
             }
             stats.visible_pairs += 1;
             unordered.insert((s.min(r), s.max(r)));
-            self.links
-                .push(to_link(&v, sender, r as u32, 0, true), (s as u32, 0));
+            if self.config.decomposition == Decomposition::NonStandard {
+                self.scaling
+                    .push(scaling_link(&v, (r as u32, 0), (s as u32, 0)));
+            } else {
+                self.links
+                    .push(to_link(&v, sender, r as u32, 0, true), (s as u32, 0));
+            }
         }
         stats.visible_unordered = unordered.len();
         self.links.sort(n);
@@ -301,6 +321,19 @@ impl GlossySolution {
     /// Solves radiance (and importance when on); refreshes the reflected part.
     fn solve_all(&mut self) -> Result<(SolveRecord, Option<SolveRecord>), GlossyError> {
         let c = &self.config;
+        if c.decomposition == Decomposition::NonStandard {
+            // Importance is off (checked by the config).
+            let r = nonstandard::solve(
+                &mut self.funcs,
+                &self.haar,
+                &self.scaling,
+                RADIANCE,
+                c.tolerance,
+                c.max_iterations,
+            )?;
+            self.refresh_reflected();
+            return Ok((r, None));
+        }
         let r = solve(
             &mut self.funcs,
             &self.links,
@@ -321,6 +354,11 @@ impl GlossySolution {
         } else {
             None
         };
+        self.refresh_reflected();
+        Ok((r, i))
+    }
+
+    fn refresh_reflected(&mut self) {
         self.reflected = self
             .funcs
             .value
@@ -328,7 +366,6 @@ impl GlossySolution {
             .zip(&self.funcs.emit)
             .map(|(v, e)| std::array::from_fn(|b| v[b] - e[b]))
             .collect();
-        Ok((r, i))
     }
 
     /// Whether refinement has stopped (see [`GlossyStats::stop`]).
@@ -340,7 +377,9 @@ impl GlossySolution {
     /// Bytes of links and coefficients.
     #[must_use]
     pub fn bytes(&self) -> usize {
-        self.links.bytes() + self.funcs.len() * (2 * BANDS * 8 + 12)
+        self.links.bytes()
+            + self.scaling.capacity() * ScalingLink::BYTES
+            + self.funcs.len() * (2 * BANDS * 8 + 12)
     }
 
     /// One refinement round: oracle, new links, rebuild, solve. `None` when refinement
@@ -357,6 +396,54 @@ impl GlossySolution {
             round: self.stats.rounds.len() + 1,
             ..RoundStats::default()
         };
+        let refined = match self.config.decomposition {
+            Decomposition::Standard => self.refine_standard(&mut rs)?,
+            Decomposition::NonStandard => self.refine_nonstandard(&mut rs)?,
+        };
+        let Some(budget_hit) = refined else {
+            return Ok(None);
+        };
+        let t_refine = t0.elapsed();
+        let t1 = Instant::now();
+        let (r, i) = self.solve_all()?;
+        rs.radiance_solve = r;
+        rs.importance_solve = i;
+        self.stats.times.refine += secs(t_refine);
+        self.stats.times.solve += secs(t1.elapsed());
+        rs.links = self.links.len() + self.scaling.len();
+        if let (Some(tol), Some(img)) = (self.config.image_tolerance, self.watch_image()) {
+            if let Some(prev) = &self.last_image {
+                let (mut d, mut n) = (0.0, 0.0);
+                for (a, b) in prev.iter().zip(&img) {
+                    for c in 0..3 {
+                        d += (a[c] - b[c]).powi(2);
+                        n += b[c] * b[c];
+                    }
+                }
+                let ch = if n > 0.0 { (d / n).sqrt() } else { 0.0 };
+                rs.image_change = Some(ch);
+                if ch <= tol {
+                    self.stats.stop = format!("eye image changed by {ch:.3e} <= {tol:.3e}");
+                }
+            }
+            self.last_image = Some(img);
+        }
+        if budget_hit {
+            self.stats.stop = "link or memory budget reached".into();
+        } else if rs.computed == 0 {
+            self.stats.stop = "no candidate reached the fraction of the maximum".into();
+        }
+        rs.seconds = secs(t0.elapsed());
+        self.stats.samples += rs.samples;
+        self.stats.rays += rs.rays;
+        self.stats.rounds.push(rs.clone());
+        self.refresh_stats();
+        Ok(Some(rs))
+    }
+
+    /// The standard decomposition's round (oracle, new links, §5.4 rebuild); `None`
+    /// when refinement stops, else whether a budget ended it.
+    fn refine_standard(&mut self, rs: &mut RoundStats) -> Result<Option<bool>, GlossyError> {
         let cands = refine::candidates(&self.funcs, &self.links, &self.dead, self.config.max_level);
         rs.candidates = cands.len();
         let arrive = if self.importance_on() {
@@ -454,42 +541,105 @@ impl GlossySolution {
         }
         self.links.sort(self.scene.patches.len());
         rs.rebuilt = refine::rebuild(&self.funcs, &mut self.links, &self.haar);
-        let t_refine = t0.elapsed();
-        let t1 = Instant::now();
-        let (r, i) = self.solve_all()?;
-        rs.radiance_solve = r;
-        rs.importance_solve = i;
-        self.stats.times.refine += secs(t_refine);
-        self.stats.times.solve += secs(t1.elapsed());
-        rs.links = self.links.len();
-        if let (Some(tol), Some(img)) = (self.config.image_tolerance, self.watch_image()) {
-            if let Some(prev) = &self.last_image {
-                let (mut d, mut n) = (0.0, 0.0);
-                for (a, b) in prev.iter().zip(&img) {
-                    for c in 0..3 {
-                        d += (a[c] - b[c]).powi(2);
-                        n += b[c] * b[c];
-                    }
-                }
-                let ch = if n > 0.0 { (d / n).sqrt() } else { 0.0 };
-                rs.image_change = Some(ch);
-                if ch <= tol {
-                    self.stats.stop = format!("eye image changed by {ch:.3e} <= {tol:.3e}");
-                }
+        Ok(Some(budget_hit))
+    }
+
+    /// The non-standard decomposition's round ([`crate::nonstandard`]): every link
+    /// whose value reaches `fraction ×` the largest is replaced by the links of its
+    /// split end's 16 children. `None` when refinement stops, else whether a budget
+    /// ended it.
+    fn refine_nonstandard(&mut self, rs: &mut RoundStats) -> Result<Option<bool>, GlossyError> {
+        let vals = nonstandard::values(
+            &self.funcs,
+            &self.haar,
+            &self.scaling,
+            self.config.max_level,
+        );
+        rs.candidates = vals.iter().filter(|v| v.1.is_some()).count();
+        let max = vals.iter().map(|v| v.0).fold(0.0, f64::max);
+        rs.max_value = max;
+        if !crate::positive(max) {
+            self.stats.stop = "no link has a non-zero oracle value".into();
+            return Ok(None);
+        }
+        let cut = self.config.fraction * max;
+        let mut split = Vec::new();
+        let mut budget_hit = false;
+        for (i, (v, sp)) in vals.iter().enumerate() {
+            let Some(sp) = sp else { continue };
+            if *v < cut {
+                continue;
             }
-            self.last_image = Some(img);
+            let grown = 15 * (split.len() + 1);
+            if self.scaling.len() + grown > self.config.max_links
+                || self.bytes() + grown * ScalingLink::BYTES > self.config.max_bytes
+            {
+                budget_hit = true;
+                break;
+            }
+            split.push((i, *sp));
         }
-        if budget_hit {
-            self.stats.stop = "link or memory budget reached".into();
-        } else if rs.computed == 0 {
-            self.stats.stop = "no candidate reached the fraction of the maximum".into();
+        rs.computed = split.len() * CHILDREN;
+        // (sending patch, key, receiving patch, key) of every child link.
+        let mut jobs = Vec::with_capacity(rs.computed);
+        for &(i, sp) in &split {
+            let l = self.scaling[i];
+            let kr = self.funcs.trees[l.recv_patch as usize].keys[l.recv_node as usize];
+            let ks = self.funcs.trees[l.send_patch as usize].keys[l.send_node as usize];
+            for (cr, cs) in nonstandard::children(kr, ks, sp) {
+                jobs.push((l.send_patch, cs, l.recv_patch, cr));
+            }
         }
-        rs.seconds = secs(t0.elapsed());
-        self.stats.samples += rs.samples;
-        self.stats.rays += rs.rays;
-        self.stats.rounds.push(rs.clone());
-        self.refresh_stats();
-        Ok(Some(rs))
+        let tr = self.transport()?;
+        let seed = self.config.seed;
+        let out: Vec<LinkValues> = jobs
+            .par_iter()
+            .map(|&(sp, cs, rp, cr)| {
+                let kh = cs
+                    .idx
+                    .iter()
+                    .fold(u64::from(cs.level), |h, &i| mix(h ^ u64::from(i)));
+                tr.compute(
+                    End {
+                        patch: sp as usize,
+                        key: cs,
+                        tau: 0,
+                    },
+                    End {
+                        patch: rp as usize,
+                        key: cr,
+                        tau: 0,
+                    },
+                    node_stream(seed ^ mix(u64::from(sp) ^ kh), rp as usize, &cr),
+                )
+            })
+            .collect();
+        drop(tr);
+        let mut gone = vec![false; self.scaling.len()];
+        for &(i, _) in &split {
+            gone[i] = true;
+        }
+        let mut kept: Vec<ScalingLink> = self
+            .scaling
+            .iter()
+            .zip(&gone)
+            .filter(|(_, g)| !**g)
+            .map(|(l, _)| *l)
+            .collect();
+        for ((sp, cs, rp, cr), v) in jobs.into_iter().zip(out) {
+            rs.samples += v.samples;
+            rs.rays += v.rays;
+            if !v.nonzero {
+                self.stats.empty_links += 1;
+                continue;
+            }
+            let rn = self.funcs.node(rp as usize, cr);
+            let sn = self.funcs.node(sp as usize, cs);
+            kept.push(scaling_link(&v, (rp, rn), (sp, sn)));
+            rs.new_links += 1;
+        }
+        self.scaling = kept;
+        Ok(Some(budget_hit))
     }
 
     /// Runs refinement rounds until [`GlossyConfig::rounds`] rounds have been done in
@@ -530,8 +680,8 @@ impl GlossySolution {
         }
         self.stats.spaces = spaces;
         self.stats.functions = self.funcs.len();
-        self.stats.links = self.links.len();
-        self.stats.link_bytes = self.links.bytes();
+        self.stats.links = self.links.len() + self.scaling.len();
+        self.stats.link_bytes = self.links.bytes() + self.scaling.capacity() * ScalingLink::BYTES;
         self.stats.coefficient_bytes = self.funcs.len() * (2 * BANDS * 8 + 12)
             + self.funcs.trees.iter().map(|t| t.len() * 32).sum::<usize>();
     }
@@ -757,6 +907,24 @@ impl GlossySolution {
                     for n in 0..t.len() {
                         let mask = if n == 0 { 0xFFFF } else { 0xFFFE };
                         senders.push(((q as u32, n as u32), mask));
+                    }
+                }
+            }
+            GatherMode::Linked | GatherMode::Root if !self.scaling.is_empty() => {
+                // Non-standard: every node of the patches linked into this one (a
+                // node's `φ` is not one of the gather's types).
+                let mut from: Vec<u32> = self
+                    .scaling
+                    .iter()
+                    .filter(|l| l.recv_patch as usize == patch)
+                    .map(|l| l.send_patch)
+                    .collect();
+                from.sort_unstable();
+                from.dedup();
+                for q in from {
+                    for n in 0..self.funcs.trees[q as usize].len() {
+                        let mask = if n == 0 { 0xFFFF } else { 0xFFFE };
+                        senders.push(((q, n as u32), mask));
                     }
                 }
             }

@@ -105,7 +105,11 @@ fn gather_patch(
     }
 }
 
-fn rel_change(old: &[[f64; BANDS]], new: &[[f64; BANDS]], bands: std::ops::Range<usize>) -> f64 {
+pub(crate) fn rel_change(
+    old: &[[f64; BANDS]],
+    new: &[[f64; BANDS]],
+    bands: std::ops::Range<usize>,
+) -> f64 {
     let mut worst: f64 = 0.0;
     for b in bands {
         let (mut d, mut n) = (0.0, 0.0);
@@ -250,7 +254,7 @@ pub fn solve(
     Ok(rec)
 }
 
-fn check_finite(rec: &SolveRecord) -> Result<(), GlossyError> {
+pub(crate) fn check_finite(rec: &SolveRecord) -> Result<(), GlossyError> {
     if rec.change.is_finite() || rec.change == f64::INFINITY && rec.iterations == 1 {
         Ok(())
     } else {
