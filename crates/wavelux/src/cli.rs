@@ -314,6 +314,10 @@ pub struct GlossyArgs {
     /// Glossy: Ward-lobe samples per point pair (glossy receivers).
     #[arg(long, default_value_t = 4)]
     pub lobe_samples: usize,
+    /// Glossy: operator decomposition (§3.5; non-standard: scaling links with
+    /// push/pull, importance off).
+    #[arg(long, value_enum, default_value_t = crate::pipeline::glossy::DecompositionArg::Standard)]
+    pub decomposition: crate::pipeline::glossy::DecompositionArg,
 }
 
 /// Options of the global cube (`--method global-cube`, GlobalCube §3–§4). It shares

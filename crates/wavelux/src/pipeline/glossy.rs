@@ -13,8 +13,8 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use clap::ValueEnum;
 use wavelux::glossy::{
-    DirectionKind, GatherMode, GlossyConfig, GlossySolution, ImportanceSource, LinearSolver,
-    TransportOptions, WardVariant,
+    Decomposition, DirectionKind, GatherMode, GlossyConfig, GlossySolution, ImportanceSource,
+    LinearSolver, TransportOptions, WardVariant,
 };
 use wavelux::render::{GlossyField, GlossyTracer, RadianceOptions, View, render_radiance};
 use wavelux::scene::{Camera, Projection};
@@ -61,6 +61,15 @@ pub enum GatherModeArg {
     Linked,
     /// Senders linked to the point's root function (fastest).
     Root,
+}
+
+/// Operator decomposition (`--decomposition`, Glossy §3.5).
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DecompositionArg {
+    /// The paper's: a sending function to a node's wavelets at any level.
+    Standard,
+    /// Scaling links between nodes' `φ` with push/pull (importance off).
+    NonStandard,
 }
 
 /// Importance source (`--importance`).
@@ -111,6 +120,10 @@ pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
             DirectionsArg::Concentric => DirectionKind::Concentric,
         },
         solver,
+        decomposition: match g.decomposition {
+            DecompositionArg::Standard => Decomposition::Standard,
+            DecompositionArg::NonStandard => Decomposition::NonStandard,
+        },
         tolerance: a.tolerance.unwrap_or(1e-6),
         max_iterations: a.max_iterations,
         rounds: g.rounds,
@@ -195,6 +208,7 @@ impl Method for Glossy {
             tolerance: Some(c.tolerance),
             glossy: serde_json::to_value(GlossyInfo {
                 variant: c.variant.name(),
+                decomposition: c.decomposition.name(),
                 directions: c.directions.name(),
                 rounds: c.rounds,
                 fraction: c.fraction,
@@ -329,6 +343,7 @@ impl Method for Glossy {
 #[derive(serde::Serialize)]
 struct GlossyInfo {
     variant: &'static str,
+    decomposition: &'static str,
     directions: &'static str,
     rounds: usize,
     fraction: f64,
