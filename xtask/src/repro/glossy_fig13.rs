@@ -51,7 +51,7 @@ fn square(scene: &mut Scene, name: &str, c: DVec3, n: DVec3, a: f64, mat: Materi
 }
 
 /// The three patches of Glossy Fig. 12.
-fn three_patches() -> Scene {
+pub(super) fn three_patches() -> Scene {
     let mut s = Scene::new("glossy-fig13");
     // Exitance π: radiance L_e = 1.
     let light = Material::lambertian("light", Rgb::BLACK, Rgb::grey(PI));
@@ -83,7 +83,7 @@ fn three_patches() -> Scene {
 }
 
 /// `L₂(ω)` at patch 2's midpoint (world direction `w`, patch 2's frame is the world's).
-fn reference_l2(lobe: &WardLobe, w: DVec3) -> f64 {
+pub(super) fn reference_l2(lobe: &WardLobe, w: DVec3) -> f64 {
     let x1 = DVec3::new(-0.5, 0.0, 1.0);
     let d = -x1;
     let r2 = d.length_squared();
@@ -113,7 +113,7 @@ fn reference_measure(lobe: &WardLobe, k: usize) -> f64 {
 
 /// Relative L² error of patch 2's radiance at its midpoint over a `k × k` grid of the
 /// direction square (the parameter measure).
-fn error_patch2(sol: &GlossySolution, lobe: &WardLobe, k: usize) -> f64 {
+pub(super) fn error_patch2(sol: &GlossySolution, lobe: &WardLobe, k: usize) -> f64 {
     let (mut e, mut n) = (0.0, 0.0);
     for i in 0..k {
         for j in 0..k {
@@ -130,7 +130,12 @@ fn error_patch2(sol: &GlossySolution, lobe: &WardLobe, k: usize) -> f64 {
 
 /// Relative L² error of patch 3's radiance over a `k × k` grid of its support, either
 /// read from the expansion or by the final gather.
-fn error_patch3(sol: &GlossySolution, lobe: &WardLobe, k: usize, gather: Option<usize>) -> f64 {
+pub(super) fn error_patch3(
+    sol: &GlossySolution,
+    lobe: &WardLobe,
+    k: usize,
+    gather: Option<usize>,
+) -> f64 {
     let support = &sol.scene.patches[2].support;
     let mut rng = rand_pcg::Pcg64::new(0xcafe_f00d_d15e_a5e5, 0xa02b_dbf7_bb3c_0a7a);
     let (mut e, mut n) = (0.0, 0.0);

@@ -11,6 +11,7 @@ use crate::reproduce::Ctx;
 
 mod cornell_faces;
 mod default_bias;
+mod glossy_3_5;
 mod glossy_fig13;
 mod glossy_ward;
 mod meshless_common;
@@ -123,6 +124,13 @@ pub fn all() -> Vec<Reproduction> {
             seed_file: "003_fdfe6675de3bf6ad.txt",
             title: "Three patches: glossy radiance convergence; patch 3 without importance, with it, with gather",
             run: glossy_fig13::run,
+        },
+        Reproduction {
+            id: "glossy-3.5",
+            source: "Glossy §3.5 (standard vs non-standard operator decomposition)",
+            seed_file: "003_fdfe6675de3bf6ad.txt",
+            title: "Standard vs non-standard decomposition on the three-patch scene: links and samples at equal error",
+            run: glossy_3_5::run,
         },
         Reproduction {
             id: "glossy-ward",
