@@ -1,7 +1,10 @@
 //! Glossy benches (issue 16): Ward BRDF evaluation and half-vector sampling per
-//! variant (evaluations per second on one core), and the final gather (Glossy §5.5) per
-//! pixel on the Cornell box with Ward (α = 0.2) walls after the `V⁰` solve, for the
-//! three sender choices (all senders, linked senders, root links only).
+//! variant (evaluations per second on one core); on the Cornell box with Ward
+//! (α = 0.2) walls: one transport link (kernel samples per second) beside raw
+//! occlusion queries between the same two patches (rays per second, same run), one
+//! Gauss–Seidel sweep over the links of a refined solution (links per second), and the
+//! final gather (Glossy §5.5) per pixel after the `V⁰` solve for the three sender
+//! choices (all senders, linked senders, root links only).
 #![allow(missing_docs)] // reason: criterion's macros generate undocumented items
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
@@ -9,7 +12,13 @@ use glam::{DVec2, DVec3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 use std::hint::black_box;
-use wavelux::glossy::{GatherMode, GlossyConfig, GlossySolution, WardLobe, WardVariant};
+use wavelux::glossy::basis::NodeKey;
+use wavelux::glossy::solve::solve;
+use wavelux::glossy::transport::{End, Transport};
+use wavelux::glossy::tree::RADIANCE;
+use wavelux::glossy::{
+    GatherMode, GlossyConfig, GlossySolution, LinearSolver, WardLobe, WardVariant,
+};
 use wavelux::scene::builtin::cornell_box;
 use wavelux::scene::{Rgb, WardParams};
 
@@ -59,7 +68,8 @@ fn ward(c: &mut Criterion) {
     g.finish();
 }
 
-fn gather(c: &mut Criterion) {
+/// The Cornell box with Ward (α = 0.2, ρ_s = 0.2) on every reflecting material.
+fn ward_cornell() -> wavelux::scene::Scene {
     let mut scene = cornell_box();
     for m in &mut scene.materials {
         if m.emission.0 == [0.0; 3] {
@@ -71,6 +81,107 @@ fn gather(c: &mut Criterion) {
             m.reflectance = Rgb(m.reflectance.0.map(|r| 0.7 * r));
         }
     }
+    scene
+}
+
+fn link(c: &mut Criterion) {
+    let scene = ward_cornell();
+    let sol = GlossySolution::new(
+        &scene,
+        "builtin:cornell-box",
+        GlossyConfig {
+            rounds: 0,
+            ..GlossyConfig::default()
+        },
+    )
+    .expect("the Cornell box solves");
+    let gs = &sol.scene;
+    let tr = Transport::new(gs, sol.config.directions, sol.config.transport)
+        .expect("valid transport options");
+    // The first reflecting patch and the largest patch linked to it.
+    let recv = (0..gs.patches.len())
+        .find(|&p| !gs.patches[p].is_emitter() && !gs.patches[p].is_eye())
+        .expect("a reflecting patch");
+    let send = (0..gs.patches.len())
+        .filter(|&p| p != recv && !gs.patches[p].is_eye())
+        .max_by(|&a, &b| {
+            let area = |p: usize| gs.patches[p].support.real_area();
+            area(a).total_cmp(&area(b))
+        })
+        .expect("a sender");
+    let end = |patch| End {
+        patch,
+        key: NodeKey::ROOT,
+        tau: 0,
+    };
+    let v = tr.compute(end(send), end(recv), 1);
+    let mut g = c.benchmark_group("glossy/link");
+    g.sample_size(20);
+    g.throughput(Throughput::Elements(v.samples));
+    g.bench_function("transport_samples", |b| {
+        b.iter(|| black_box(tr.compute(end(send), end(recv), 1)));
+    });
+    // Raw occlusion between random points of the same two patches, as many rays.
+    let mut rng = Pcg64::seed_from_u64(3);
+    let (ps, pr) = (&gs.patches[send].support, &gs.patches[recv].support);
+    let (ps_prim, pr_prim) = (gs.patches[send].prim, gs.patches[recv].prim);
+    let pts: Vec<(DVec3, DVec3)> = (0..v.rays.max(1))
+        .map(|_| {
+            let x = ps.visibility_point(rng.random(), rng.random());
+            let y = pr.visibility_point(rng.random(), rng.random());
+            (x, y)
+        })
+        .collect();
+    g.throughput(Throughput::Elements(pts.len() as u64));
+    g.bench_function("occlusion_rays", |b| {
+        b.iter(|| {
+            let mut n = 0usize;
+            for &(x, y) in &pts {
+                n += usize::from(gs.accel.occluded(x, y, [ps_prim, pr_prim]));
+            }
+            black_box(n)
+        });
+    });
+    g.finish();
+}
+
+fn sweep(c: &mut Criterion) {
+    let scene = ward_cornell();
+    let mut sol = GlossySolution::new(
+        &scene,
+        "builtin:cornell-box",
+        GlossyConfig {
+            rounds: 1,
+            ..GlossyConfig::default()
+        },
+    )
+    .expect("the Cornell box solves");
+    sol.run(|_| {}).expect("one round");
+    let links = sol.links.clone();
+    let mut funcs = sol.funcs.clone();
+    let mut g = c.benchmark_group("glossy/gauss_seidel_sweep");
+    g.sample_size(20);
+    g.throughput(Throughput::Elements(links.len() as u64));
+    g.bench_function("links", |b| {
+        b.iter(|| {
+            black_box(
+                solve(
+                    &mut funcs,
+                    &links,
+                    RADIANCE,
+                    LinearSolver::GaussSeidel,
+                    0.0,
+                    1,
+                )
+                .expect("finite sweep"),
+            )
+        });
+    });
+    g.finish();
+}
+
+fn gather(c: &mut Criterion) {
+    let scene = ward_cornell();
     let sol = GlossySolution::new(
         &scene,
         "builtin:cornell-box",
@@ -97,5 +208,5 @@ fn gather(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, ward, gather);
+criterion_group!(benches, ward, link, sweep, gather);
 criterion_main!(benches);

@@ -105,6 +105,28 @@ fn glossy_method_matches_the_closed_form_and_the_glossy_check() -> Result<()> {
             >= 1
     );
 
+    // The non-standard decomposition (scaling links, push/pull) keeps the closed form
+    // after a round of refinement.
+    let v = glossy(
+        "diffuse.toml",
+        &[
+            "--rounds",
+            "1",
+            "--samples",
+            "0",
+            "--decomposition",
+            "non-standard",
+        ],
+        d,
+        "diffuse-ns",
+    )?;
+    assert_eq!(v["method"]["glossy"]["decomposition"], "non-standard");
+    let r = radiosity(&v, "receiver");
+    assert!(
+        (r - exact).abs() < 0.01 * exact,
+        "non-standard: {r} vs {exact}"
+    );
+
     // Ward receiver under a Lambertian emitter: modelled (no warning); against the
     // glossy path tracer's check the mean exitance is 26 % off in V⁰ and 4.0 % after
     // two rounds (measured, check noise 0.8 % at 20 000 samples): within 3 noise
@@ -178,6 +200,16 @@ fn glossy_bad_options_fail_clearly() -> Result<()> {
         "image's camera",
     );
     fails(&with(&["--fraction", "0"]), d, "fraction");
+    fails(
+        &with(&[
+            "--decomposition",
+            "non-standard",
+            "--importance-surfaces",
+            "receiver",
+        ]),
+        d,
+        "non-standard",
+    );
     fails(&with(&["--importance-surfaces", "nosuch"]), d, "nosuch");
     fails(
         &with(&["--image-tolerance", "0.01"]),
