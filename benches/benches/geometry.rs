@@ -3,6 +3,10 @@
 //! (f32 Möller–Trumbore in the traversal callback) on the same BVH preset and the same
 //! rays, with 1 and 2 rayon threads, in a ~100k-triangle room and a ~1M-triangle scene.
 //! The ratio `wrapper / obvhs` of the times is the wrapper's overhead.
+//! `wrapper` is `Accel::occluded_queries` (batches of `COHERENT_MIN` or more answered in
+//! a coherent order); `wrapper_input_order` answers the same queries one by one in
+//! their own order through `Accel::occluded`, as the obvhs variants do, so the two
+//! show what the coherent order gains.
 //! `obvhs_direct` looks triangles up through `primitive_indices` (obvhs's basic
 //! example); `obvhs_leaf_ordered` reorders them into leaf order first (its
 //! cornell_box example), the layout the wrapper uses. `occlusion_room_exact` times the
@@ -116,6 +120,20 @@ fn bench_scene(c: &mut Criterion, name: &str, tris: Vec<[DVec3; 3]>, n_rays: usi
         g.bench_with_input(BenchmarkId::new("wrapper", threads), &threads, |b, _| {
             b.iter(|| pool.install(|| acc.occluded_queries(&qs, &mut out).expect("lengths match")))
         });
+        g.bench_with_input(
+            BenchmarkId::new("wrapper_input_order", threads),
+            &threads,
+            |b, _| {
+                b.iter(|| {
+                    pool.install(|| {
+                        out2.par_iter_mut()
+                            .with_min_len(256)
+                            .zip(qs.par_iter())
+                            .for_each(|(o, q)| *o = acc.occluded(q.p, q.q, q.ignore))
+                    })
+                })
+            },
+        );
         g.bench_with_input(
             BenchmarkId::new("obvhs_direct", threads),
             &threads,

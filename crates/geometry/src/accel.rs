@@ -48,6 +48,9 @@ pub const SELF_EPS_REL: f64 = 1e-6;
 /// Distance (normalised units, scene diagonal ∈ (½, 1]) by which f32 rays start before
 /// the query interval: ten times obvhs' absolute node-entry clamp of `1e-4`.
 pub const TRAVERSAL_BACKOFF: f64 = 1e-3;
+/// Batches of at least this many queries are answered in a coherent order (see
+/// [`Accel::occluded_queries`]); smaller ones in their own order.
+pub const COHERENT_MIN: usize = 4096;
 
 #[derive(Debug, Clone, Copy)]
 enum Slot {
@@ -316,7 +319,8 @@ impl Accel {
             return false;
         }
         let is_ignored = |id: PrimId| ignore[0] == Some(id) || ignore[1] == Some(id);
-        let Some(fray) = self.traversal_ray(p, q) else {
+        // What `traversal_ray(p, q)` returns, without recomputing the ray.
+        let Some((fray, _)) = self.frame.ray(&self.bounds, &ray, 0.0, len) else {
             return false;
         };
         let wray = WatertightRay::new(&ray);
@@ -339,7 +343,9 @@ impl Accel {
     }
 
     /// Occlusion of many segments in parallel (rayon); `out[i]` answers `pairs[i]` with
-    /// no `ignore` (end-point epsilon only).
+    /// no `ignore` (end-point epsilon only). Batches of [`COHERENT_MIN`] or more are
+    /// traversed in a coherent order (same answers, about twice the throughput on
+    /// random segments).
     ///
     /// # Errors
     /// [`GeometryError::OutOfRange`] if `out` and `pairs` differ in length.
@@ -354,16 +360,18 @@ impl Accel {
                 len: pairs.len(),
             });
         }
-        out.par_iter_mut()
-            .with_min_len(256)
-            .zip(pairs.par_iter())
-            .for_each(|(o, (p, q))| *o = self.occluded(*p, *q, [None, None]));
+        self.in_coherent_order(pairs.iter().map(|&(p, q)| (p, q - p)), out, |i| {
+            let (p, q) = pairs[i];
+            self.occluded(p, q, [None, None])
+        });
         Ok(())
     }
 
     /// Occlusion of many queries with per-query `ignore` lists, in parallel (rayon).
     /// The statistics count every query as deferred to the CPU (the reference
-    /// [`crate::backend::Occluder`]).
+    /// [`crate::backend::Occluder`]). Batches of [`COHERENT_MIN`] or more are traversed
+    /// in a coherent order (same answers, about 1.5× the throughput on random
+    /// segments).
     ///
     /// # Errors
     /// [`GeometryError::OutOfRange`] if `out` and `queries` differ in length.
@@ -378,10 +386,10 @@ impl Accel {
                 len: queries.len(),
             });
         }
-        out.par_iter_mut()
-            .with_min_len(256)
-            .zip(queries.par_iter())
-            .for_each(|(o, qu)| *o = self.occluded(qu.p, qu.q, qu.ignore));
+        self.in_coherent_order(queries.iter().map(|q| (q.p, q.q - q.p)), out, |i| {
+            let qu = &queries[i];
+            self.occluded(qu.p, qu.q, qu.ignore)
+        });
         Ok(OcclusionStats {
             queries: queries.len(),
             device_rays: 0,
@@ -389,7 +397,8 @@ impl Accel {
         })
     }
 
-    /// Closest hits of many rays in parallel (rayon), each over `t ∈ [tmin, tmax]`.
+    /// Closest hits of many rays in parallel (rayon), each over `t ∈ [tmin, tmax]`;
+    /// batches of [`COHERENT_MIN`] or more in a coherent order (same answers).
     ///
     /// # Errors
     /// [`GeometryError::OutOfRange`] if `out` and `rays` differ in length.
@@ -406,11 +415,62 @@ impl Accel {
                 len: rays.len(),
             });
         }
-        out.par_iter_mut()
-            .with_min_len(256)
-            .zip(rays.par_iter())
-            .for_each(|(o, r)| *o = self.closest_hit(r, tmin, tmax));
+        self.in_coherent_order(rays.iter().map(|r| (r.origin, r.dir)), out, |i| {
+            self.closest_hit(&rays[i], tmin, tmax)
+        });
         Ok(())
+    }
+
+    /// Answers `out[i] = answer(i)` for every query `i`, in parallel, visiting the
+    /// queries in an order in which neighbours traverse similar parts of the BVH (the
+    /// batched traversal: random shadow rays are memory-bound, and answering them in
+    /// this order halves the cache misses; `room_100k` in docs/performance.md). The
+    /// order sorts by the octant of the direction, then by the Morton code of the
+    /// origin on a 2¹⁰ grid of the scene box; batches below [`COHERENT_MIN`] keep
+    /// their own order. The answers do not depend on the order.
+    fn in_coherent_order<T: Send>(
+        &self,
+        rays: impl Iterator<Item = (DVec3, DVec3)>,
+        out: &mut [T],
+        answer: impl Fn(usize) -> T + Sync,
+    ) {
+        if out.len() < COHERENT_MIN {
+            out.par_iter_mut()
+                .with_min_len(256)
+                .enumerate()
+                .for_each(|(i, o)| *o = answer(i));
+            return;
+        }
+        let ext = (self.bounds.max - self.bounds.min).max(DVec3::splat(f64::MIN_POSITIVE));
+        // Spreads the 10 low bits of `v` to every third bit.
+        let spread = |v: u64| {
+            let mut x = v & 0x3ff;
+            x = (x | (x << 16)) & 0x0300_00ff;
+            x = (x | (x << 8)) & 0x0300_f00f;
+            x = (x | (x << 4)) & 0x030c_30c3;
+            (x | (x << 2)) & 0x0924_9249
+        };
+        let mut keys: Vec<(u64, u32)> = rays
+            .enumerate()
+            .map(|(i, (o, d))| {
+                let oct =
+                    u64::from(d.x < 0.0) | u64::from(d.y < 0.0) << 1 | u64::from(d.z < 0.0) << 2;
+                // NaN end points land in cell 0 (`as` saturates); `occluded` answers them.
+                let g =
+                    ((o - self.bounds.min) / ext * 1023.0).clamp(DVec3::ZERO, DVec3::splat(1023.0));
+                let m = spread(g.x as u64) | spread(g.y as u64) << 1 | spread(g.z as u64) << 2;
+                (oct << 30 | m, i as u32)
+            })
+            .collect();
+        keys.par_sort_unstable();
+        let sorted: Vec<T> = keys
+            .par_iter()
+            .with_min_len(256)
+            .map(|&(_, i)| answer(i as usize))
+            .collect();
+        for ((_, i), a) in keys.into_iter().zip(sorted) {
+            out[i as usize] = a;
+        }
     }
 
     /// Brute-force closest hit over all primitives (reference for tests).

@@ -145,6 +145,61 @@ fn occlusion_with_ignore_ids_equals_brute_force() {
     assert!(n_occ > 50 && n_occ < 1450, "{n_occ}");
 }
 
+/// Batches of `COHERENT_MIN` or more are answered in a coherent order (sorted by
+/// direction octant and origin); every answer must still land at its own index and
+/// equal the one-by-one answer (and brute force on a sample), NaN end points included.
+#[test]
+fn coherent_batches_answer_each_query_at_its_index() {
+    let acc = Accel::build(random_scene(7, 300)).unwrap();
+    let n = acc.len();
+    let m = wavelux_geometry::accel::COHERENT_MIN + 904;
+    let mut r = Pcg64::seed_from_u64(77);
+    let mut pairs: Vec<(DVec3, DVec3)> = (0..m)
+        .map(|_| (rv(&mut r, -6.0, 6.0), rv(&mut r, -6.0, 6.0)))
+        .collect();
+    pairs[17] = (DVec3::splat(f64::NAN), DVec3::ONE);
+    let mut out = vec![false; m];
+    acc.occluded_batch(&pairs, &mut out).unwrap();
+    assert!(!out[17]);
+    let queries: Vec<OcclusionQuery> = pairs
+        .iter()
+        .map(|&(p, q)| OcclusionQuery {
+            p,
+            q,
+            ignore: [Some(r.random_range(0..n) as u32), None],
+        })
+        .collect();
+    let mut outq = vec![false; m];
+    acc.occluded_queries(&queries, &mut outq).unwrap();
+    let rays: Vec<Ray> = pairs[..17]
+        .iter()
+        .chain(&pairs[18..])
+        .map(|&(p, q)| Ray::new(p, q - p).unwrap())
+        .collect();
+    let mut hits = vec![None; rays.len()];
+    acc.closest_hit_batch(&rays, 0.0, f64::INFINITY, &mut hits)
+        .unwrap();
+    let mut n_occ = 0;
+    for (k, &(p, q)) in pairs.iter().enumerate() {
+        assert_eq!(out[k], acc.occluded(p, q, [None, None]), "pair {k}");
+        let qu = &queries[k];
+        assert_eq!(outq[k], acc.occluded(qu.p, qu.q, qu.ignore), "query {k}");
+        if k % 16 == 0 {
+            assert_eq!(out[k], acc.occluded_brute(p, q, [None, None]), "pair {k}");
+        }
+        n_occ += usize::from(out[k]);
+    }
+    for (k, ray) in rays.iter().enumerate() {
+        let one = acc.closest_hit(ray, 0.0, f64::INFINITY);
+        assert_eq!(
+            hits[k].map(|h| (h.prim, h.t)),
+            one.map(|h| (h.prim, h.t)),
+            "ray {k}"
+        );
+    }
+    assert!(n_occ > m / 10 && n_occ < m - m / 10, "{n_occ} of {m}");
+}
+
 #[test]
 fn batch_length_mismatch_is_an_error() {
     let acc = Accel::build(random_scene(9, 10)).unwrap();
