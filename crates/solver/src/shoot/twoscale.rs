@@ -58,7 +58,7 @@ impl Mats {
 
 /// The push/pull operators of a solve.
 #[derive(Debug)]
-pub(crate) struct TwoScale<'a> {
+pub struct TwoScale<'a> {
     basis: &'a TreeBasis,
     patches: &'a [Patch],
     n: usize,
