@@ -4,8 +4,9 @@
 //! random dyadic grids 8³–32³ (empty, thin and thick cells, coarse leaves, odd and
 //! even framebuffers, both collision modes) within 1e-5 of each receiver's largest
 //! face power where the projection is continuous in the ray, and otherwise (opaque
-//! cells, per-face emission: rays through cell edges) as close to the CPU as the CPU
-//! is to itself under the cyclic axis rotation; bitwise repeatability, chunked
+//! cells, per-face emission: rays through cell edges) as close to the CPU as the GPU
+//! is to itself under the cyclic axis rotation (the WGSL lacks the CPU's symmetric tie
+//! rule); bitwise repeatability, chunked
 //! dispatches equal to one, an opaque wall that zeroes everything behind it, the
 //! escape sum, and typed errors for bad input.
 
@@ -267,8 +268,9 @@ fn tie_free_random_grids_agree_with_the_cpu_projector() -> anyhow::Result<()> {
 
 /// The scene turned by the cyclic axis permutation `x → y → z → x` (cell order kept).
 /// The cube map is invariant under it bit for bit, so an exact projector gives the
-/// same face powers, faces permuted; the CPU's tie rule at exact edge crossings
-/// (lowest axis first) is not invariant.
+/// same face powers, faces permuted; the CPU's tie rule at exact edge crossings (the
+/// mean over the orders of the tied axes) is invariant, a rule that prefers one axis
+/// (the WGSL's lowest axis first) is not.
 fn rotate(s: &Scene) -> Scene {
     let mut r = Scene {
         side: s.side,
@@ -298,11 +300,13 @@ fn rotated_gather(p: &dyn Projector, s: &Scene, rec: &[Receiver]) -> anyhow::Res
 /// With opaque cells and per-face emission, a ray through a cell edge enters the
 /// next cells in an order the traversal decides by comparing crossing distances,
 /// and cube-map pixel centres hit edges exactly and systematically (|u| : |v| odd
-/// ratios). The CPU decides those ties in f64 (lowest axis first), the GPU in f32, and
-/// the face powers jump with the decision. The CPU's own spread under an exact
-/// symmetry of the problem (the cyclic axis rotation) bounds what agreement can mean:
-/// the GPU must be at least as close to the CPU as the CPU is to its rotated self,
-/// per face and in total power.
+/// ratios). The CPU averages over every order of stepping across the tied axes (its
+/// tie rule, `wavelux_volume::backend::cpu`), so it does not depend on how the axes
+/// are labelled (rotation spread ~1e-15, checked here); the WGSL projector does not
+/// have that rule yet (it steps across the lowest tied axis first, in f32), so its
+/// face powers jump with the decision. Until it does, the bound is the GPU's own
+/// spread under the same exact symmetry (the cyclic axis rotation): the GPU must be at
+/// least as close to the CPU as it is to its rotated self, per face and in total power.
 #[test]
 fn tie_sensitive_grids_agree_as_well_as_the_cpu_with_itself() -> anyhow::Result<()> {
     let cpu = CpuProjector::new(Projection::Exact, AntiAlias::OFF);
@@ -314,17 +318,32 @@ fn tie_sensitive_grids_agree_as_well_as_the_cpu_with_itself() -> anyhow::Result<
             let g = gather(&p, &s, Collision::Exact, &rec)?;
             let c = gather(&cpu, &s, Collision::Exact, &rec)?;
             let cr = rotated_gather(&cpu, &s, &rec)?;
+            let gr = rotated_gather(&p, &s, &rec)?;
             let total = |v: &[FaceRgb]| v.iter().flatten().flatten().sum::<f64>();
-            let (tg, tc, tr) = (total(&g), total(&c), total(&cr));
-            let (face_gpu, face_cpu) = (worst_relative(&g, &c), worst_relative(&cr, &c));
-            let (tot_gpu, tot_cpu) = (((tg - tc) / tc).abs(), ((tr - tc) / tc).abs());
+            let (tg, tc, tr, tgr) = (total(&g), total(&c), total(&cr), total(&gr));
+            let (face_gpu, face_cpu, face_rot) = (
+                worst_relative(&g, &c),
+                worst_relative(&cr, &c),
+                worst_relative(&gr, &g),
+            );
+            let (tot_gpu, tot_cpu, tot_rot) = (
+                ((tg - tc) / tc).abs(),
+                ((tr - tc) / tc).abs(),
+                ((tgr - tg) / tg).abs(),
+            );
             eprintln!(
-                "  {side}³, {} receivers: worst face gpu–cpu {face_gpu:.3e}, cpu–rotated cpu \
-                 {face_cpu:.3e}; total power gpu–cpu {tot_gpu:.3e}, cpu–rotated cpu {tot_cpu:.3e}",
+                "  {side}³, {} receivers: worst face gpu–cpu {face_gpu:.3e}, gpu–rotated gpu \
+                 {face_rot:.3e}, cpu–rotated cpu {face_cpu:.3e}; total power gpu–cpu \
+                 {tot_gpu:.3e}, gpu–rotated gpu {tot_rot:.3e}, cpu–rotated cpu {tot_cpu:.3e}",
                 rec.len()
             );
-            assert!(face_gpu <= face_cpu, "{side}³: {face_gpu:e} > {face_cpu:e}");
-            assert!(tot_gpu <= tot_cpu, "{side}³: {tot_gpu:e} > {tot_cpu:e}");
+            // The CPU's tie rule is invariant under the rotation.
+            assert!(
+                face_cpu <= 1e-12,
+                "{side}³: CPU rotation spread {face_cpu:e}"
+            );
+            assert!(face_gpu <= face_rot, "{side}³: {face_gpu:e} > {face_rot:e}");
+            assert!(tot_gpu <= tot_rot, "{side}³: {tot_gpu:e} > {tot_rot:e}");
         }
     }
     Ok(())

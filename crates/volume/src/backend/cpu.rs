@@ -195,28 +195,52 @@ struct Traced {
     steps: u64,
 }
 
-/// A ray: origin and direction in voxel units, the first voxel and the face of it the
-/// ray enters through.
+/// A ray: origin and direction in voxel units, where it starts and the face (as
+/// weights over the three axes) it enters its first cell through.
 #[derive(Clone, Copy)]
 struct Ray {
     o: [f64; 3],
     d: [f64; 3],
     t: f64,
+    /// The first voxel crossed (unused when `inside` is set).
     idx: [i64; 3],
-    entry: usize,
+    /// Entry weight per axis: the ray enters a cell through the face of axis `a` it
+    /// meets moving along `d` ([`entry_face`]) with weight `entry[a]` (one axis, or a
+    /// mixture after an exact edge or corner crossing; they sum to 1).
+    entry: [f64; 3],
+    /// The box `(lo, size)` the ray starts inside (the receiver): it contributes
+    /// nothing and the ray leaves it by the same crossing rule as every other cell.
+    inside: Option<([i64; 3], i64)>,
+}
+
+/// The face of a cell a ray moving along `d` enters through across axis `a`.
+fn entry_face(a: usize, d: [f64; 3]) -> usize {
+    face_index(a, d[a] > 0.0)
+}
+
+/// The entry weights of a crossing of axis `a` alone.
+fn unit_entry(a: usize) -> [f64; 3] {
+    let mut e = [0.0; 3];
+    e[a] = 1.0;
+    e
+}
+
+/// The voxel coordinate of position `x` for a ray moving with component `d`: a
+/// position on a voxel boundary goes to the side the ray moves to (so the ray never
+/// visits a voxel it only touches).
+fn voxel_coordinate(x: f64, d: f64) -> i64 {
+    let f = x.floor();
+    if x == f && d < 0.0 {
+        f as i64 - 1
+    } else {
+        f as i64
+    }
 }
 
 /// The voxel a ray from `o` along `d` starts in (a coordinate on a voxel boundary goes
 /// to the side the ray moves to).
 fn start_voxel(o: [f64; 3], d: [f64; 3]) -> [i64; 3] {
-    [0, 1, 2].map(|a| {
-        let f = o[a].floor();
-        if o[a] == f && d[a] < 0.0 {
-            f as i64 - 1
-        } else {
-            f as i64
-        }
-    })
+    [0, 1, 2].map(|a| voxel_coordinate(o[a], d[a]))
 }
 
 /// The ray from the centre of face `face` of the box `[lo, lo + size)` along `d`.
@@ -251,43 +275,55 @@ fn face_ray_at(lo: [i64; 3], size: i64, face: usize, d: [f64; 3], at: [f64; 2]) 
         t: 0.0,
         idx,
         // The receiver's face `face` touches the next cell's opposite face.
-        entry: face ^ 1,
+        entry: unit_entry(axis),
+        inside: None,
     }
 }
 
-/// The ray from the point at fractions `at` (in `(0, 1)`) of the box's side along `d`,
-/// started where it leaves the box.
+/// The ray from the point at fractions `at` (in `(0, 1)`) of the box's side along `d`;
+/// it starts inside the box and leaves it by the traversal's crossing rule.
 fn box_ray_at(lo: [i64; 3], size: i64, d: [f64; 3], at: [f64; 3]) -> Ray {
     let o = [0, 1, 2].map(|a| lo[a] as f64 + at[a] * size as f64);
-    let hi = lo.map(|v| v + size);
-    let mut ta = [f64::INFINITY; 3];
-    let mut te = f64::INFINITY;
-    for a in 0..3 {
-        if d[a] > 0.0 {
-            ta[a] = (hi[a] as f64 - o[a]) / d[a];
-        } else if d[a] < 0.0 {
-            ta[a] = (lo[a] as f64 - o[a]) / d[a];
-        }
-        te = te.min(ta[a]);
-    }
-    let step = (0..3).find(|&a| ta[a] == te).unwrap_or(0);
-    let mut idx = [0i64; 3];
-    for a in 0..3 {
-        idx[a] = if a == step {
-            if d[a] > 0.0 { hi[a] } else { lo[a] - 1 }
-        } else {
-            ((o[a] + te * d[a]).floor() as i64).clamp(lo[a], hi[a] - 1)
-        };
-    }
-    let entry = face_index(step, d[step] > 0.0);
     Ray {
         o,
         d,
-        t: te,
-        idx,
-        entry,
+        t: 0.0,
+        idx: lo,
+        entry: unit_entry(0),
+        inside: Some((lo, size)),
     }
 }
+
+/// One box a ray crosses: an active cell, or a pyramid cell standing in for the cells
+/// it covers.
+#[derive(Clone, Copy)]
+struct Hit {
+    lo: [i64; 3],
+    size: i64,
+    /// Optical depth per voxel edge.
+    ext: f64,
+    /// The active cell (emission coefficients) when `coarse` is `None`.
+    ci: usize,
+    /// A pyramid cell's isotropic emission.
+    coarse: Option<[f64; 3]>,
+}
+
+impl Hit {
+    fn same_box(&self, other: &Hit) -> bool {
+        self.lo == other.lo && self.size == other.size
+    }
+}
+
+/// The orderings of the axes a ray crosses at one point (edges: 2, corners: 6).
+const ORDERS_2: [[usize; 2]; 2] = [[0, 1], [1, 0]];
+const ORDERS_3: [[usize; 3]; 6] = [
+    [0, 1, 2],
+    [0, 2, 1],
+    [1, 0, 2],
+    [1, 2, 0],
+    [2, 0, 1],
+    [2, 1, 0],
+];
 
 struct Tracer<'a> {
     scene: &'a ProjectionScene<'a>,
@@ -307,17 +343,84 @@ impl Tracer<'_> {
         Some(&self.scene.cells[self.scene.cell_map[lin] as usize])
     }
 
+    /// The box containing voxel `idx` for a ray at distance `t` (voxel units) whose
+    /// pixel is `footprint` radians wide: the active cell, or with the pyramid the
+    /// coarse cell matching the footprint. `None` outside the grid.
+    fn hit(&self, idx: [i64; 3], t: f64, footprint: f64) -> Option<Hit> {
+        let n = self.scene.side as i64;
+        if idx.iter().any(|&i| i < 0 || i >= n) {
+            return None;
+        }
+        let lin = (idx[0] + n * (idx[1] + n * idx[2])) as usize;
+        let ci = self.scene.cell_map[lin] as usize;
+        let cell: &TraversalCell = &self.scene.cells[ci];
+        let mut h = Hit {
+            lo: cell.origin.map(i64::from),
+            size: i64::from(cell.size),
+            ext: cell.extinction,
+            ci,
+            coarse: None,
+        };
+        if let Some(p) = self.pyramid {
+            let w = t * footprint;
+            if w >= 2.0 {
+                let l = (w.log2().floor() as usize).min(p.levels.len());
+                if (1i64 << l) > h.size {
+                    let lev = &p.levels[l - 1];
+                    let c = idx.map(|i| (i >> l) as usize);
+                    let li = c[0] + lev.side * (c[1] + lev.side * c[2]);
+                    h.lo = c.map(|c| (c as i64) << l);
+                    h.size = 1 << l;
+                    h.ext = lev.extinction[li];
+                    h.coarse = Some(lev.emission[li]);
+                }
+            }
+        }
+        Some(h)
+    }
+
+    /// The emission a ray entering `h` with entry weights `entry` along `d` sees.
+    fn emission_of(&self, h: &Hit, entry: [f64; 3], d: [f64; 3]) -> [f64; 3] {
+        if let Some(e) = h.coarse {
+            return e;
+        }
+        let c = &self.emission.coefficients[h.ci];
+        let mut e = [0.0; 3];
+        for (a, &w) in entry.iter().enumerate() {
+            if w != 0.0 {
+                let f = &c[entry_face(a, d)];
+                for ch in 0..3 {
+                    e[ch] += w * f[ch];
+                }
+            }
+        }
+        e
+    }
+
     /// Composites front to back along `ray`; each cell contributes the emission of the
     /// face the ray enters it through. `footprint` is the pixel's angular width (rad),
     /// used by the pyramid.
+    ///
+    /// Crossings: a ray leaves a box across the faces whose planes it meets first. Where
+    /// it meets two or three at once (an exact edge or corner crossing, which cube-map
+    /// pixel centres produce systematically), the crossing is the mean over every
+    /// order of stepping across those axes: in each order the ray passes the cells
+    /// beside the edge (or corner) with zero-length chords, where an opaque one stops it
+    /// (contributing its emission) and any other one changes nothing; the fraction of
+    /// orders that pass multiplies the transmittance and the ray enters the cell beyond
+    /// through the mixture of faces the passing orders end on. The rule treats the axes
+    /// alike, so the projection does not depend on how the axes are labelled (a
+    /// rotated or transposed grid gives the same face powers, faces permuted); it keeps
+    /// opaque cells that touch along an edge light-tight (every order meets one of
+    /// them).
     fn trace(&self, ray: Ray, footprint: f64) -> Traced {
-        let n = self.scene.side as i64;
         let Ray {
             o,
             d,
             mut t,
             mut idx,
             mut entry,
+            mut inside,
         } = ray;
         let inv = d.map(|x| if x != 0.0 { 1.0 / x } else { f64::INFINITY });
         let mut radiance = [0.0; 3];
@@ -325,31 +428,23 @@ impl Tracer<'_> {
         let mut steps = 0u64;
         let h = self.scene.voxel;
         loop {
-            if idx.iter().any(|&i| i < 0 || i >= n) {
-                break;
-            }
-            let lin = (idx[0] + n * (idx[1] + n * idx[2])) as usize;
-            let ci = self.scene.cell_map[lin] as usize;
-            let cell: &TraversalCell = &self.scene.cells[ci];
-            let mut lo = cell.origin.map(i64::from);
-            let mut size = i64::from(cell.size);
-            let mut ext = cell.extinction;
-            let mut coarse: Option<[f64; 3]> = None;
-            if let Some(p) = self.pyramid {
-                let w = t * footprint;
-                if w >= 2.0 {
-                    let l = (w.log2().floor() as usize).min(p.levels.len());
-                    if (1i64 << l) > size {
-                        let lev = &p.levels[l - 1];
-                        let ci = idx.map(|i| (i >> l) as usize);
-                        let li = ci[0] + lev.side * (ci[1] + lev.side * ci[2]);
-                        lo = ci.map(|c| (c as i64) << l);
-                        size = 1 << l;
-                        ext = lev.extinction[li];
-                        coarse = Some(lev.emission[li]);
-                    }
-                }
-            }
+            let (cur, contributes) = match inside.take() {
+                Some((lo, size)) => (
+                    Hit {
+                        lo,
+                        size,
+                        ext: 0.0,
+                        ci: 0,
+                        coarse: None,
+                    },
+                    false,
+                ),
+                None => match self.hit(idx, t, footprint) {
+                    Some(c) => (c, true),
+                    None => break,
+                },
+            };
+            let (lo, size) = (cur.lo, cur.size);
             let hi = lo.map(|v| v + size);
             let mut te = f64::INFINITY;
             let mut ta = [f64::INFINITY; 3];
@@ -361,44 +456,108 @@ impl Tracer<'_> {
                 }
                 te = te.min(ta[a]);
             }
-            let len = (te - t).max(0.0);
-            let e = match coarse {
-                Some(e) => e,
-                None => self.emission.coefficients[ci][entry],
-            };
-            steps += 1;
-            if ext > 0.0 {
-                let tr = if ext == f64::INFINITY {
-                    0.0
+            if contributes {
+                let len = (te - t).max(0.0);
+                let e = self.emission_of(&cur, entry, d);
+                steps += 1;
+                let ext = cur.ext;
+                if ext > 0.0 {
+                    let tr = if ext == f64::INFINITY {
+                        0.0
+                    } else {
+                        (-ext * len).exp()
+                    };
+                    let a = trans * (1.0 - tr);
+                    for ch in 0..3 {
+                        radiance[ch] += a * e[ch];
+                    }
+                    trans *= tr;
+                    if trans < MIN_TRANSMITTANCE {
+                        break;
+                    }
                 } else {
-                    (-ext * len).exp()
-                };
-                let a = trans * (1.0 - tr);
-                for ch in 0..3 {
-                    radiance[ch] += a * e[ch];
-                }
-                trans *= tr;
-                if trans < MIN_TRANSMITTANCE {
-                    break;
-                }
-            } else {
-                let a = trans * len * h;
-                for ch in 0..3 {
-                    radiance[ch] += a * e[ch];
+                    let a = trans * len * h;
+                    for ch in 0..3 {
+                        radiance[ch] += a * e[ch];
+                    }
                 }
             }
-            // Step across one face only: on an edge or corner the other axes follow
-            // with zero-length chords, so no cell along the edge is skipped.
-            let step = (0..3).find(|&a| ta[a] == te).unwrap_or(0);
+            if te == f64::INFINITY {
+                break;
+            }
+            // The voxel beside the exit point inside the box, and the one across each
+            // exit face.
+            let mut base = [0i64; 3];
+            let mut stepped = [0i64; 3];
+            let mut tied = [0usize; 3];
+            let mut n_tied = 0;
             for a in 0..3 {
-                idx[a] = if a == step {
-                    if d[a] > 0.0 { hi[a] } else { lo[a] - 1 }
-                } else {
-                    ((o[a] + te * d[a]).floor() as i64).clamp(lo[a], hi[a] - 1)
-                };
+                base[a] = voxel_coordinate(o[a] + te * d[a], d[a]).clamp(lo[a], hi[a] - 1);
+                if ta[a] == te {
+                    stepped[a] = if d[a] > 0.0 { hi[a] } else { lo[a] - 1 };
+                    base[a] = if d[a] > 0.0 { hi[a] - 1 } else { lo[a] };
+                    tied[n_tied] = a;
+                    n_tied += 1;
+                }
             }
-            entry = face_index(step, d[step] > 0.0);
+            idx = base;
+            for &a in &tied[..n_tied] {
+                idx[a] = stepped[a];
+            }
             t = te;
+            if n_tied == 1 {
+                entry = unit_entry(tied[0]);
+                continue;
+            }
+            // An exact edge (2 axes) or corner (3 axes) crossing: average the orders.
+            let beyond = self.hit(idx, t, footprint);
+            let mut passed = 0usize;
+            let mut mix = [0.0; 3];
+            let mut stopped = [0.0; 3];
+            let mut one_order = |order: &[usize]| {
+                let mut at = base;
+                let mut last = order[order.len() - 1];
+                for &a in &order[..order.len() - 1] {
+                    at[a] = stepped[a];
+                    let Some(side) = self.hit(at, t, footprint) else {
+                        continue;
+                    };
+                    if beyond.is_some_and(|b| b.same_box(&side)) {
+                        last = a;
+                        break;
+                    }
+                    if side.ext == f64::INFINITY {
+                        let e = self.emission_of(&side, unit_entry(a), d);
+                        for ch in 0..3 {
+                            stopped[ch] += e[ch];
+                        }
+                        steps += 1;
+                        return;
+                    }
+                }
+                passed += 1;
+                mix[last] += 1.0;
+            };
+            let orders = if n_tied == 2 {
+                let ab = [tied[0], tied[1]];
+                for o in ORDERS_2 {
+                    one_order(&o.map(|k| ab[k]));
+                }
+                2.0
+            } else {
+                for o in ORDERS_3 {
+                    one_order(&o);
+                }
+                6.0
+            };
+            for ch in 0..3 {
+                radiance[ch] += trans * stopped[ch] / orders;
+            }
+            trans *= passed as f64 / orders;
+            if passed == 0 || trans < MIN_TRANSMITTANCE {
+                break;
+            }
+            entry = mix.map(|m| m / passed as f64);
         }
         Traced { radiance, steps }
     }
