@@ -165,7 +165,9 @@ fn cube_and_slab_against_the_particle_tracer() {
     // (200 000 particles): escaped 0.800 of the emitted power against the tracer's
     // 0.915, absorbed 0.092 against 0.086, and the model's own balance is off by 11 %
     // (absorbed + escaped < emitted); an open defect of the model for thick, bright
-    // media, reported with issue 14.
+    // media. Its measured mechanism (the escape's point sampling at the boundary and
+    // the routing Γ_ii = σ, which keeps light inside thick cells) is in the volume
+    // crate's docs, "Thick, bright media".
     let cases = [
         (0.1, 0.5),
         (1.0, 0.5),
@@ -230,8 +232,8 @@ fn opaque_blocks_in_a_thin_source_medium() {
 #[test]
 fn the_error_falls_with_refinement() {
     // (At τ 10, ω 0.99 the error did not fall between these two sizes: 0.055 at 4³,
-    // 0.065 at 8³, measured with 100 000 particles; the cause is not established —
-    // the uniform-source self-collision of thick bright cells is one suspect.)
+    // 0.065 at 8³, measured with 100 000 particles: the routing Γ_ii = σ of thick
+    // cells, see the volume crate's docs, "Thick, bright media".)
     let (tau, omega) = (1.0, 0.5);
     let fine = medium(8, 8, tau, omega);
     let coarse = medium(4, 4, tau, omega);

@@ -70,6 +70,37 @@
 //! ([`backend::cpu::CpuProjector::default`], the command's `--receiver-samples`) is
 //! [`backend::cpu::DEFAULT_RECEIVER_SAMPLES`] `= 2`, the conservative operator.
 //!
+//! **Thick, bright media** (the open defect of issue 14: a uniformly emitting cube of
+//! optical depth 10 across `8³` voxels, `A = 1.25` per voxel, `ω = 0.99`, `N = 8`:
+//! the account loses 10.8 % with `k = 1` and 5.2 % with `k = 2`, and the
+//! particle tracer escapes 0.915 of the emitted power against the model's 0.80).
+//! Measured mechanism, two parts:
+//! 1. *Point sampling at the grid's boundary.* One face of one cell emitting 1 W,
+//!    collided plus escaped power (`k = 1` / `2`): inside the medium 0.998–1.001 /
+//!    0.999–1.000 (the point-sampling biases cancel by translation symmetry); at the
+//!    boundary they do not. [`Projector::escape`] looks from each boundary square's
+//!    centre, the point with the longest chord through the thick boundary cell: the
+//!    cell's own outer face is counted 1.24 / 1.10 times, light from its neighbours'
+//!    side faces too little (a boundary cell's side face 0.92 / 0.96, along an edge
+//!    0.86 / 0.94). The faces' powers differ strongly in such a medium (an outer face
+//!    is never lit), and about nine collisions per emitted watt multiply the
+//!    per-bounce deficit. Stratified positions that change from pixel to pixel
+//!    (measured, not adopted: the GPU escape must follow) bring the boundary columns
+//!    to 0.97–1.01 and the loss to 7.0 % / 3.6 %.
+//! 2. *Routing.* Γ with `Γ_ii = σ` sends 71 % of what a cell of `A = 1.25` collides
+//!    back through the face it came in by and 5.8 % through each side face; light
+//!    entering a homogeneous cube of that depth under isotropic radiance and
+//!    scattered once leaves by the entry face 34 %, the opposite face 6.7 % and each
+//!    side face 14.7 % of the time (Monte Carlo, 4·10⁶ paths), so the model keeps
+//!    light inside thick media: it collides 9.2 (`k = 1`) / 9.4 (`k = 2`) times per
+//!    emitted watt against the tracer's 8.6. With those first-flight fractions as Γ
+//!    it collides 7.7 / 8.0 times and escapes 0.86 / 0.89 as measured.
+//!
+//! A conservative model for such media needs a reciprocal escape measurement and the
+//! exact first-flight routing of a homogeneous cube, `Γ_ij ∝ ∫_V E_i E_j dV` with
+//! `E_j(x) = ∫_{face j} e^{−A r} cos θ / r² dA` (symmetric, with the self-collision
+//! of light entering by face `i`); neither is implemented yet.
+//!
 //! # Hierarchy
 //! The non-standard 3D Haar decomposition (seven wavelet types, eqs. (25)–(27)) of
 //! `χᵗ` and σ by `wavelux_mra::tensor`, with `M = m0 + L` ([`hierarchy`]; thresholds
