@@ -10,8 +10,13 @@
 //!   integrated in the outer variable by Gauss–Legendre on panels split at every point
 //!   where the integrand is not analytic (projections of the other edge's end points,
 //!   closest approach) and geometrically graded towards them, which handles shared
-//!   vertices and shared edges robustly to ~1e-14 relative. Each polygon is first
-//!   clipped to the other's front half-space, so any relative position is exact.
+//!   vertices and shared edges robustly to ~1e-14 relative. The number of Gauss points
+//!   of a panel follows from its distance `d` to the other edge (the integrand's
+//!   complex singularities lie at least `d` from the panel, so the rule converges like
+//!   `ρ^{-2n}` with `ρ = δ + √(δ² + 1)`, `δ = 2d/len`): 20 points next to the other
+//!   edge, down to 4 for distant pairs, which are one panel (no splitting). Each
+//!   polygon is first clipped to the other's front half-space, so any relative
+//!   position is exact.
 //!   Deviation: the outer integral of skew pairs is not the dilogarithm closed form.
 //! - Catalog configurations (Howell's catalog): [`parallel_rectangles`],
 //!   [`perpendicular_rectangles`], [`coaxial_disks`], [`point_to_parallel_rectangle_corner`],
@@ -142,20 +147,60 @@ fn parallel_double(l1: f64, l2: f64, c: f64, h: f64) -> f64 {
 
 /// Quadrature context for skew edge pairs.
 struct Outer {
+    /// `rules[n − MIN_POINTS]`: the `n`-point Gauss–Legendre rule.
+    rules: Vec<GaussLegendre>,
+    /// The 20-point rule (panels next to the other edge, graded panels).
     gl: GaussLegendre,
 }
 
+/// Fewest Gauss points of an outer panel.
+const MIN_POINTS: usize = 4;
+/// Most Gauss points of an outer panel (panels closer to the other edge than half
+/// their length, and the graded panels).
+const MAX_POINTS: usize = 20;
+
 impl Outer {
-    /// The shared 20-point rule (built once: the solver evaluates the contour
-    /// integral for every link).
+    /// The shared rules (built once: the solver evaluates the contour integral for
+    /// every link).
     fn get() -> Result<&'static Outer, GeometryError> {
         static OUTER: std::sync::OnceLock<Option<Outer>> = std::sync::OnceLock::new();
         OUTER
-            .get_or_init(|| GaussLegendre::new(20).ok().map(|gl| Outer { gl }))
+            .get_or_init(|| {
+                let rules = (MIN_POINTS..=MAX_POINTS)
+                    .map(|n| GaussLegendre::new(n).ok())
+                    .collect::<Option<Vec<_>>>()?;
+                let gl = GaussLegendre::new(MAX_POINTS).ok()?;
+                Some(Outer { rules, gl })
+            })
             .as_ref()
             .ok_or(GeometryError::Degenerate(
-                "Gauss–Legendre rule of order 20 unavailable",
+                "Gauss–Legendre rules of orders 4..=20 unavailable",
             ))
+    }
+
+    /// The Gauss rule for a panel of length `len` whose integrand's singularities lie
+    /// at least `dist` from it (in the complex plane of the outer variable; for the
+    /// contour integrand, the distance from the panel to the other edge), or `None`
+    /// when the panel is closer than half its length (split and graded instead).
+    ///
+    /// The integrand is analytic inside the Bernstein ellipse with `ρ = δ + √(δ² + 1)`,
+    /// `δ = 2 dist/len` (that ellipse lies within `dist` of the panel), so an
+    /// `n`-point rule errs by about `ρ^{−2n}` of the integrand's size: `n = ⌈20 / ln ρ⌉`
+    /// puts that below `e^{−40} ≈ 4·10⁻¹⁸` (clamped to 4..=20; at `δ = 1`, `n = 23`
+    /// would be needed and the 20-point rule of the near panels is used, as before).
+    fn rule_for(&self, len: f64, dist: f64) -> Option<&GaussLegendre> {
+        let delta = 2.0 * dist / len;
+        if delta.is_nan() || delta < 1.0 {
+            return None;
+        }
+        let rho = delta + (delta * delta + 1.0).sqrt();
+        let n = (20.0 / rho.ln()).ceil();
+        let n = if n.is_finite() {
+            (n as usize).clamp(MIN_POINTS, MAX_POINTS)
+        } else {
+            MIN_POINTS
+        };
+        Some(&self.rules[n - MIN_POINTS])
     }
 
     /// `∫_a^b f` on a panel graded geometrically towards the end points `a`/`b` flagged.
@@ -222,6 +267,10 @@ fn edge_pair(outer: &Outer, p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
     }
     // Skew: outer integral over s ∈ [0, lp] of the closed-form inner integral.
     let f = |s: f64| line_log_integral(p0 + s * up, q0, uq, lq);
+    // Edges far apart (relative to the outer one's length): one panel, few points.
+    if let Some(rule) = outer.rule_for(lp, segment_distance(p0, p1, q0, q1)) {
+        return cosang * rule.integrate(0.0, lp, f);
+    }
     let mut breaks = vec![0.0, lp];
     for q in [q0, q1] {
         breaks.push((q - p0).dot(up));
@@ -252,11 +301,56 @@ fn edge_pair(outer: &Outer, p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
         if len <= 0.0 {
             continue;
         }
-        let ga = seg_dist(a) < 0.5 * len;
-        let gb = seg_dist(bnd) < 0.5 * len;
-        total += outer.graded(a, bnd, ga, gb, &f);
+        // The distance to the other edge is convex along this one and least at a
+        // break: on a panel it is least at an end.
+        let (da, db) = (seg_dist(a), seg_dist(bnd));
+        let (ga, gb) = (da < 0.5 * len, db < 0.5 * len);
+        let rule = if ga || gb {
+            None
+        } else {
+            outer.rule_for(len, da.min(db))
+        };
+        total += match rule {
+            Some(rule) => rule.integrate(a, bnd, &f),
+            None => outer.graded(a, bnd, ga, gb, &f),
+        };
     }
     cosang * total
+}
+
+/// Distance from the point `x` to the segment `ab` (m).
+pub fn point_segment_distance(x: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let d = b - a;
+    let l2 = d.length_squared();
+    let t = if l2 > 0.0 {
+        ((x - a).dot(d) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (a + t * d - x).length()
+}
+
+/// Distance between the segments `a0a1` and `b0b1` (m): the smaller of the four
+/// end-point distances and the distance at the lines' closest approach when it falls
+/// inside both segments.
+pub fn segment_distance(a0: DVec3, a1: DVec3, b0: DVec3, b1: DVec3) -> f64 {
+    let (d1, d2, r) = (a1 - a0, b1 - b0, a0 - b0);
+    let (a, e, f) = (d1.length_squared(), d2.length_squared(), d2.dot(r));
+    let ends = point_segment_distance(a0, b0, b1)
+        .min(point_segment_distance(a1, b0, b1))
+        .min(point_segment_distance(b0, a0, a1))
+        .min(point_segment_distance(b1, a0, a1));
+    if a <= 0.0 || e <= 0.0 {
+        return ends;
+    }
+    let (b, c) = (d1.dot(d2), d1.dot(r));
+    let den = a * e - b * b;
+    if den <= 1e-14 * a * e {
+        return ends;
+    }
+    let s = ((b * f - c * e) / den).clamp(0.0, 1.0);
+    let t = ((b * s + f) / e).clamp(0.0, 1.0);
+    ends.min((a0 + d1 * s - (b0 + d2 * t)).length())
 }
 
 /// `A_i F_ij` between two planar polygons (vertices counter-clockwise about each
@@ -277,6 +371,26 @@ pub fn area_form_factor(pi: &[DVec3], pj: &[DVec3]) -> Result<f64, GeometryError
         return Ok(0.0);
     }
     let outer = Outer::get()?;
+    // `∮∮ ln r0 dx·dy = 0` on closed contours, so the integral is `r0²` times that of
+    // the polygons mapped by `v ↦ (v − c)/r0`: with `r0` the distance between their
+    // centroids the logarithms of distant pairs are near zero instead of `ln r0`,
+    // which cuts the rounding of the edge pairs' sum (each pair is `O(size² ln r0)`
+    // while the sum is `O(size⁴/r0²)`), and the result does not depend on the
+    // coordinates' origin and unit.
+    let mean = |p: &[DVec3]| p.iter().copied().sum::<DVec3>() / p.len() as f64;
+    let (mi, mj) = (mean(&ci), mean(&cj));
+    let size = ci
+        .iter()
+        .chain(&cj)
+        .map(|v| (*v - mi).length().max((*v - mj).length()))
+        .fold(0.0, f64::max);
+    let r0 = (mi - mj).length().max(1e-3 * size);
+    if !(r0 > 0.0 && r0.is_finite()) {
+        return Ok(0.0);
+    }
+    let c = 0.5 * (mi + mj);
+    let map = |p: &[DVec3]| p.iter().map(|v| (*v - c) / r0).collect::<Vec<_>>();
+    let (ci, cj) = (map(&ci), map(&cj));
     let mut sum = 0.0;
     for a in 0..ci.len() {
         let (p0, p1) = (ci[a], ci[(a + 1) % ci.len()]);
@@ -285,7 +399,7 @@ pub fn area_form_factor(pi: &[DVec3], pj: &[DVec3]) -> Result<f64, GeometryError
             sum += edge_pair(outer, p0, p1, q0, q1);
         }
     }
-    Ok(sum / (2.0 * PI))
+    Ok(r0 * r0 * sum / (2.0 * PI))
 }
 
 /// Form factor `F_ij` from polygon `pi` to polygon `pj` (see [`area_form_factor`]).

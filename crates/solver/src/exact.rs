@@ -25,7 +25,9 @@
 
 use glam::{DVec2, DVec3};
 use wavelux_geometry::Edge2;
-use wavelux_geometry::formfactor::{area_form_factor, newell, point_to_polygon};
+use wavelux_geometry::formfactor::{
+    area_form_factor, newell, point_segment_distance, point_to_polygon, segment_distance,
+};
 use wavelux_quadrature::GaussLegendre;
 
 use crate::basis::TreeBasis;
@@ -298,7 +300,7 @@ fn curve_integral(
     let (pa, pb) = (sup.point(a.x, a.y), sup.point(b.x, b.y));
     let chord = (pb - pa).length();
     let mid = sup.point(0.5 * (a.x + b.x), 0.5 * (a.y + b.y));
-    let dist = seg_dist(x, pa, pb).min((mid - x).length());
+    let dist = point_segment_distance(x, pa, pb).min((mid - x).length());
     if dist < chord && depth < 40 {
         let m = 0.5 * (a + b);
         return Some(
@@ -330,18 +332,6 @@ fn curve_integral(
     }
     Some(sum)
 }
-
-fn seg_dist(x: DVec3, a: DVec3, b: DVec3) -> f64 {
-    let d = b - a;
-    let l2 = d.length_squared();
-    let t = if l2 > 0.0 {
-        ((x - a).dot(d) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (a + t * d - x).length()
-}
-
 /// `∫_g ψ_a(x) F(x → P) dA_x`, `a = 0..n` (the unit-square basis of `g`), by the
 /// node's 4×4 Gauss rule (see the module docs). The price of one rule for every
 /// piece: it is not bisected, so a moment against a piece touching or close to the
@@ -542,7 +532,9 @@ fn piece_distance(patches: &[Patch], piece: &Piece, x: DVec3) -> f64 {
     match piece {
         Piece::Polygons { loops, .. } => loops
             .iter()
-            .flat_map(|(l, _)| (0..l.len()).map(move |k| seg_dist(x, l[k], l[(k + 1) % l.len()])))
+            .flat_map(|(l, _)| {
+                (0..l.len()).map(move |k| point_segment_distance(x, l[k], l[(k + 1) % l.len()]))
+            })
             .fold(f64::INFINITY, f64::min),
         Piece::Curved { region, .. } => {
             let (c, r) = patches[region.patch]
@@ -713,7 +705,7 @@ fn panel_pair(
     let (la, lb) = ((a1 - a0).length(), (b1 - b0).length());
     let am = a.at(0.5 * (ua.0 + ua.1));
     let bm = b.at(0.5 * (vb.0 + vb.1));
-    let dist = seg_seg_dist(a0, a1, b0, b1).min((am - bm).length());
+    let dist = segment_distance(a0, a1, b0, b1).min((am - bm).length());
     if dist < la.max(lb) && depth < 30 {
         if la >= lb {
             let m = 0.5 * (ua.0 + ua.1);
@@ -745,27 +737,6 @@ fn panel_pair(
         }
     }
     sum * da * db
-}
-
-/// Distance between the segments `a0a1` and `b0b1`.
-fn seg_seg_dist(a0: DVec3, a1: DVec3, b0: DVec3, b1: DVec3) -> f64 {
-    let (d1, d2, r) = (a1 - a0, b1 - b0, a0 - b0);
-    let (a, e, f) = (d1.length_squared(), d2.length_squared(), d2.dot(r));
-    let ends = seg_dist(a0, b0, b1)
-        .min(seg_dist(a1, b0, b1))
-        .min(seg_dist(b0, a0, a1))
-        .min(seg_dist(b1, a0, a1));
-    if a <= 0.0 || e <= 0.0 {
-        return ends;
-    }
-    let (b, c) = (d1.dot(d2), d1.dot(r));
-    let den = a * e - b * b;
-    if den <= 1e-14 * a * e {
-        return ends;
-    }
-    let s = ((b * f - c * e) / den).clamp(0.0, 1.0);
-    let t = ((b * s + f) / e).clamp(0.0, 1.0);
-    ends.min((a0 + d1 * s - (b0 + d2 * t)).length())
 }
 
 #[cfg(test)]
