@@ -73,13 +73,19 @@ pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) ->
             };
             let (ar, ae) = (area(&l.r), area(&l.e));
             let mut evals = 0u64;
-            // The unoccluded exact column the link's block was corrected to, as
-            // irradiance coefficients of R from unit radiosity on E.
-            let Some(mut v) = ctx.exact_moments(&rr, &pe, &mut evals) else {
-                return out;
-            };
             let Some(exact) = ctx.exact_constant(&pr, &pe) else {
                 return out;
+            };
+            // The unoccluded exact column the link's block was corrected to, as
+            // irradiance coefficients of R from unit radiosity on E (piecewise
+            // constants: the constant entry alone).
+            let mut v = if n == 1 {
+                vec![exact]
+            } else {
+                let Some(v) = ctx.exact_moments(&rr, &pe, &mut evals) else {
+                    return out;
+                };
+                v
             };
             let unit = exact / (ar * ae).sqrt();
             if !(unit > 0.0 && unit.is_finite()) {
@@ -105,17 +111,23 @@ pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) ->
                 if ch[0] == u32::MAX {
                     let k = h.keys[i];
                     let kr = k.region();
-                    let Some(mut m) = ctx.exact_moments(&kr, &pe, &mut evals) else {
-                        continue;
-                    };
                     // The leaf's constant entry as exactly as the link's own (the
                     // contour integral between polygons).
-                    if let Some(c) = ctx
+                    let c = ctx
                         .exact_pieces(&kr, &er)
-                        .and_then(|(pl, _)| ctx.exact_constant(&pl, &pe))
-                    {
-                        m[0] = c;
-                    }
+                        .and_then(|(pl, _)| ctx.exact_constant(&pl, &pe));
+                    let m = match c {
+                        Some(c) if n == 1 => vec![c],
+                        _ => {
+                            let Some(mut m) = ctx.exact_moments(&kr, &pe, &mut evals) else {
+                                continue;
+                            };
+                            if let Some(c) = c {
+                                m[0] = c;
+                            }
+                            m
+                        }
+                    };
                     let s = area(&k).sqrt();
                     let mut d: Vec<f64> = m
                         .iter()
