@@ -114,8 +114,8 @@ pub struct Multigrid {
 }
 
 /// Solver configuration. `Default` gives Haar, `ε = 1e-3`, 5 levels, kernel
-/// smoothness oracle, visibility in quadrature with 3 Gauss points per axis (far pairs
-/// probed with 2), Picard with up to 200 iterations to a relative residual of `1e-10`.
+/// smoothness oracle, visibility in quadrature with 3 Gauss points per axis, Picard
+/// with up to 200 iterations to a relative residual of `1e-10`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolverConfig {
     /// Basis.
@@ -139,9 +139,10 @@ pub struct SolverConfig {
     /// Gauss points per axis (`n_samp`, `1..=16`).
     pub quad_points: usize,
     /// Gauss points per axis of the visibility probe of far pairs of unmasked affine
-    /// nodes (`1..=16`; from `quad_points` on there is no probe): see
-    /// [`transfer::FAR_RATIO`].
-    pub far_probe_points: usize,
+    /// nodes (`1..=16`; none, or from `quad_points` on, no probe): see
+    /// [`transfer::FAR_RATIO`]. Off by default until its effect on the default run's
+    /// texel error is measured.
+    pub far_probe_points: Option<usize>,
     /// Order of the singular rules (`1..=8`).
     pub singular_order: usize,
     /// Admissibility factor of the regular rule (`≥ 0.5`).
@@ -174,7 +175,7 @@ impl Default for SolverConfig {
             visibility: Visibility::InQuadrature,
             oracle_visibility: true,
             quad_points: 3,
-            far_probe_points: 2,
+            far_probe_points: None,
             singular_order: 4,
             near_field: 1.0,
             max_split_depth: 3,
@@ -213,12 +214,10 @@ impl SolverConfig {
         if !(1..=16).contains(&self.quad_points) {
             return Err(bad("quad_points", self.quad_points, "must be in 1..=16"));
         }
-        if !(1..=16).contains(&self.far_probe_points) {
-            return Err(bad(
-                "far_probe_points",
-                self.far_probe_points,
-                "must be in 1..=16",
-            ));
+        if let Some(p) = self.far_probe_points
+            && !(1..=16).contains(&p)
+        {
+            return Err(bad("far_probe_points", p, "must be in 1..=16"));
         }
         if !(1..=8).contains(&self.singular_order) {
             return Err(bad(

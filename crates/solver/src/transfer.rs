@@ -207,8 +207,8 @@ pub struct TransferOptions {
     /// Gauss points per axis of regular pairs (`n_samp`), `1..=16`.
     pub quad_points: usize,
     /// Gauss points per axis of the visibility probe of far pairs ([`FAR_RATIO`]),
-    /// `1..=16` (from `quad_points` on there is no probe).
-    pub far_probe_points: usize,
+    /// `1..=16` (none, or from `quad_points` on, no probe).
+    pub far_probe_points: Option<usize>,
     /// Gauss order per transformed variable of the singular rules, `1..=8`.
     pub singular_order: usize,
     /// Admissibility factor of the regular rule (≥ 0).
@@ -264,8 +264,8 @@ impl<'a> TransferCtx<'a> {
             c[q + 1] = 1.0;
             (x, w, c)
         };
-        let far = if opts.far_probe_points < q {
-            let g = GaussLegendre::new(opts.far_probe_points).map_err(dep("quadrature"))?;
+        let far = if let Some(p) = opts.far_probe_points.filter(|&p| p < q) {
+            let g = GaussLegendre::new(p).map_err(dep("quadrature"))?;
             let (x, w) = g.unit();
             let mut c = vec![0.0; x.len() + 1];
             for i in 0..x.len() {
@@ -1275,8 +1275,8 @@ mod tests {
             ..SolverConfig::default()
         };
         let (pa, pb) = (
-            Prepared::new(&scene, &cfg(2)).unwrap(),
-            Prepared::new(&scene, &cfg(3)).unwrap(),
+            Prepared::new(&scene, &cfg(Some(2))).unwrap(),
+            Prepared::new(&scene, &cfg(None)).unwrap(),
         );
         let (probed, full) = (pa.transfer().unwrap(), pb.transfer().unwrap());
         let np = probed.patches.len();
