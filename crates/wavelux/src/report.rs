@@ -300,6 +300,15 @@ pub struct TargetReport {
     pub estimate: f64,
     /// The residual alone (the local part of the estimate), relative as above.
     pub residual: f64,
+    /// The relative error every face side had to reach as well (the target unless
+    /// set otherwise).
+    pub face_target: f64,
+    /// The face side with the largest estimated relative L1 error and that error
+    /// (`surface` or `surface (back)`); faces darker than 1 % of the scene's mean
+    /// reflected radiosity are judged relative to that 1 %.
+    pub worst_face: String,
+    /// See `worst_face`.
+    pub worst_face_estimate: f64,
     /// The basis chosen (or given) and why.
     pub basis: String,
     /// Why that basis.
@@ -325,6 +334,8 @@ pub struct TargetRound {
     pub refined: u64,
     /// Estimated relative L1 error after the round.
     pub estimate: f64,
+    /// The largest estimated relative L1 error of a face side after the round.
+    pub worst_face_estimate: f64,
     /// Wall times (s): refinement and link blocks, linear solves, the estimate.
     pub time_refine_s: f64,
     /// See `time_refine_s`.

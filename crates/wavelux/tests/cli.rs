@@ -809,6 +809,23 @@ fn target_error_reaches_the_target_and_records_its_rounds() -> Result<()> {
     let rounds = t["rounds"].as_array().unwrap();
     assert!(!rounds.is_empty());
     assert_eq!(rounds.last().unwrap()["estimate"].as_f64(), Some(est));
+    // Every face side reached the target too; the worst one is named.
+    assert_eq!(t["face_target"].as_f64(), Some(0.03));
+    let worst = t["worst_face_estimate"].as_f64().unwrap();
+    assert!((0.0..=0.03).contains(&worst), "worst face {worst}");
+    assert_eq!(
+        rounds.last().unwrap()["worst_face_estimate"].as_f64(),
+        Some(worst)
+    );
+    let name = t["worst_face"].as_str().unwrap();
+    assert!(
+        a["surfaces"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|s| name.starts_with(s["name"].as_str().unwrap())),
+        "worst face {name} is not a surface"
+    );
     assert_eq!(t["basis"], "M3");
     assert!(!t["basis_reason"].as_str().unwrap().is_empty());
     assert!(t["eps"].as_f64().unwrap() > 0.0);

@@ -81,8 +81,21 @@ pub fn plan(a: &SolveArgs, target: f64) -> anyhow::Result<Box<dyn Method>> {
 }
 
 /// The JSON record of a finished loop.
-fn report_of(cfg: &TargetConfig, out: &TargetOutcome) -> report::TargetReport {
+fn report_of(
+    scene: &wavelux::scene::Scene,
+    cfg: &TargetConfig,
+    out: &TargetOutcome,
+) -> report::TargetReport {
     let den: f64 = out.estimate.reflected_l1.iter().sum();
+    let (worst, worst_est) = out.estimate.worst_patch().unwrap_or((0, 0.0));
+    let worst_face = out.solution.patches.get(worst).map_or(String::new(), |p| {
+        let name = &scene.surfaces[p.surface].name;
+        if p.side == wavelux::solver::Side::Back {
+            format!("{name} (back)")
+        } else {
+            name.clone()
+        }
+    });
     report::TargetReport {
         target: cfg.target,
         reached: out.reached,
@@ -93,6 +106,9 @@ fn report_of(cfg: &TargetConfig, out: &TargetOutcome) -> report::TargetReport {
         } else {
             0.0
         },
+        face_target: cfg.face_target.unwrap_or(cfg.target),
+        worst_face,
+        worst_face_estimate: worst_est,
         basis: out.choice.basis.name(),
         basis_reason: out.choice.basis_reason.clone(),
         eps: out.choice.eps,
@@ -106,6 +122,7 @@ fn report_of(cfg: &TargetConfig, out: &TargetOutcome) -> report::TargetReport {
                 leaves: r.leaves,
                 refined: r.refined,
                 estimate: r.estimate,
+                worst_face_estimate: r.worst_patch.1,
                 time_refine_s: secs(r.time_refine),
                 time_solve_s: secs(r.time_solve),
                 time_estimate_s: secs(r.time_estimate),
@@ -138,7 +155,7 @@ impl Method for Target {
         let out = solve_to_target(job.scene, &self.cfg);
         sp.finish_and_clear();
         let out = out.with_context(|| format!("solving {:?} failed", job.args.scene))?;
-        stats.target = Some(report_of(&self.cfg, &out));
+        stats.target = Some(report_of(job.scene, &self.cfg, &out));
         stats.time_s.estimate = out.rounds.iter().map(|r| secs(r.time_estimate)).sum();
         finish(job, out.solution, stats)
     }
@@ -147,9 +164,14 @@ impl Method for Target {
         let c = &self.cfg.solver;
         let t = r.statistics.target.as_ref();
         format!(
-            "wavelet radiosity (gather) to target error {:.3}%: estimate {} after {} rounds ({}), basis {}, max level {} (safety limit), {} solver, {} visibility, {}x{} quadrature",
+            "wavelet radiosity (gather) to target error {:.3}%: estimate {}, worst face {} after {} rounds ({}), basis {}, max level {} (safety limit), {} solver, {} visibility, {}x{} quadrature",
             100.0 * self.cfg.target,
             t.map_or("?".into(), |t| format!("{:.3}%", 100.0 * t.estimate)),
+            t.map_or("?".into(), |t| format!(
+                "{} {:.2}%",
+                t.worst_face,
+                100.0 * t.worst_face_estimate
+            )),
             t.map_or(0, |t| t.rounds.len()),
             t.map_or("?".into(), |t| t.stop_reason.clone()),
             t.map_or("?".into(), |t| t.basis.clone()),
