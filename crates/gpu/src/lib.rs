@@ -16,6 +16,11 @@
 //!   continuous in the ray; rays through cell edges are discussed in
 //!   [`mod@projector`].
 //!
+//! - [`GpuTransfer`]: [`wavelux_meshless::TransferBackend`] — the meshless relighting
+//!   product `i = S·e` (Meshless §3.3) on the shared packed layout, TwoSum pairs in a
+//!   fixed order, within `1e-6·(|S||e|) + 1e-30·max|S|·max|e|` of the CPU backend
+//!   ([`mod@transfer`]).
+//!
 //! [`Gpu`] selects the adapter (`WGPU_ADAPTER_NAME` substring, else discrete >
 //! integrated > virtual > cpu, e.g. Mesa lavapipe), requests the adapter's own
 //! limits, and turns every wgpu failure (validation, out of memory, device loss) into
@@ -31,11 +36,13 @@ pub mod device;
 pub mod matvec;
 pub mod occlusion;
 pub mod projector;
+pub mod transfer;
 
 pub use device::{AdapterSummary, Gpu, adapters};
 pub use matvec::GpuMatVec;
 pub use occlusion::GpuOcclusion;
 pub use projector::GpuProjector;
+pub use transfer::GpuTransfer;
 
 /// Errors of the GPU backend.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
