@@ -126,6 +126,20 @@ pub enum OracleArg {
     None,
 }
 
+/// Device of a method's GPU kernels (`--device`; issue 17, "Device selection").
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DeviceArg {
+    /// The CPU (the reference for every kernel).
+    Cpu,
+    /// Any wgpu adapter, software ones (Mesa lavapipe) included; exits with status 2
+    /// when there is none or the command was built without the `gpu` feature. A method
+    /// with no GPU kernel for the chosen settings runs on the CPU with a warning.
+    Gpu,
+    /// A discrete or integrated GPU when the method has a kernel for the chosen
+    /// settings, else the CPU; the reason is recorded in `method.device.fallback`.
+    Auto,
+}
+
 /// Mesh grouping of the loaders (`wavelux_scene::MeshGrouping`).
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum MeshGroupingArg {
@@ -198,6 +212,11 @@ pub struct SolveArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Device of the method's GPU kernels (the global cube's projection, the meshless
+    /// transfer product); the JSON's
+    /// `method.device` records what was requested, what ran and why.
+    #[arg(long, value_enum, default_value_t = DeviceArg::Cpu)]
+    pub device: DeviceArg,
     /// Seed of every random choice (image jitter, final gather, Monte Carlo).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -355,6 +374,11 @@ pub struct VolumeArgs {
     /// times the projection cost.
     #[arg(long, default_value_t = 1)]
     pub receiver_samples: u32,
+    /// Global cube: sub-pixels per side of the adaptive supersampling (1..=16; 1: off,
+    /// the paper's one ray per pixel): a pixel whose radiance differs from a
+    /// neighbour's by more than 50 % is replaced by the mean of N² sub-pixel rays.
+    #[arg(long, default_value_t = 8)]
+    pub supersample: u32,
     /// Global cube: routing Γ (eq. 32): `normalized` (Γ_ii = σ, conserves energy) or
     /// `printed` (Γ_ii = 1 as printed; creates energy).
     #[arg(long, value_enum, default_value_t = GammaArg::Normalized)]

@@ -2,9 +2,14 @@
 //!
 //! This facade re-exports the member crates under short names so that an application
 //! can depend on `wavelux` alone. Each member crate can also be used on its own.
+//!
+//! The wgpu backend (module `gpu`, crate `wavelux-gpu`) is behind the `gpu` feature, off by
+//! default: without it nothing of wgpu is compiled and the command's `--device gpu`
+//! exits with a message naming the feature ([`GPU`] says which build this is).
 
 pub use wavelux_geometry as geometry;
 pub use wavelux_glossy as glossy;
+#[cfg(feature = "gpu")]
 pub use wavelux_gpu as gpu;
 pub use wavelux_linear as linear;
 pub use wavelux_meshless as meshless;
@@ -17,7 +22,13 @@ pub use wavelux_solver as solver;
 pub use wavelux_support as support;
 pub use wavelux_volume as volume;
 
-/// The member crates, their one-line job, in dependency order (lowest first).
+/// Whether this build includes the wgpu backend (the `gpu` feature; the module `gpu` exists only
+/// then).
+pub const GPU: bool = cfg!(feature = "gpu");
+
+/// The member crates, their one-line job, in dependency order (lowest first). Every
+/// member is listed whatever the build; `wavelux-gpu` is compiled in only with the
+/// `gpu` feature ([`GPU`]).
 pub const CRATES: &[(&str, &str)] = &[
     (
         "wavelux-mra",
@@ -65,7 +76,7 @@ pub const CRATES: &[(&str, &str)] = &[
     ),
     (
         "wavelux-gpu",
-        "wgpu backend: BVH occlusion and matrix-vector products, checked against the CPU",
+        "wgpu backend: BVH occlusion, matrix-vector and transfer products, global cube",
     ),
     (
         "wavelux-render",

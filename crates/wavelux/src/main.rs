@@ -29,13 +29,23 @@ fn main() {
         Some(Command::Crates) => {
             println!("wavelux {}", env!("CARGO_PKG_VERSION"));
             for (name, job) in wavelux::CRATES {
-                println!("  {name:<20} {job}");
+                if *name == "wavelux-gpu" && !wavelux::GPU {
+                    println!("  {name:<20} (not in this build: the `gpu` feature is off) {job}");
+                } else {
+                    println!("  {name:<20} {job}");
+                }
             }
             Ok(())
         }
     };
     if let Err(e) = r {
         eprintln!("wavelux: error: {e:#}");
-        std::process::exit(1);
+        // 2: `--device gpu` found no device (or a build without the `gpu` feature).
+        let code = if e.downcast_ref::<pipeline::NoDevice>().is_some() {
+            2
+        } else {
+            1
+        };
+        std::process::exit(code);
     }
 }

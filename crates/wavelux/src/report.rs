@@ -112,12 +112,36 @@ pub struct MethodInfo {
     /// null otherwise).
     #[serde(default)]
     pub global_cube: Option<serde_json::Value>,
+    /// `--device`: what was requested, what ran, the adapter and why the CPU ran
+    /// (null in results written before the option existed).
+    #[serde(default)]
+    pub device: Option<DeviceInfo>,
     /// Monte Carlo samples per surface (reference or error check).
     pub samples: u64,
     /// Worker threads.
     pub threads: usize,
     /// Seed.
     pub seed: u64,
+}
+
+/// The JSON's `method.device` (`--device`, docs/cli.md).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct DeviceInfo {
+    /// `--device`: `cpu`, `gpu` or `auto`.
+    pub requested: String,
+    /// What ran the method's GPU-capable kernels: `cpu`, `gpu`, or `gpu+cpu` when a
+    /// device failure moved the rest of the run to the CPU.
+    pub used: String,
+    /// The adapter's name (null when none was opened).
+    pub adapter: Option<String>,
+    /// `discrete`, `integrated`, `virtual`, `cpu` (software, e.g. lavapipe) or `other`.
+    pub device_type: Option<String>,
+    /// The graphics API (`vulkan`).
+    pub backend: Option<String>,
+    /// Driver name and version.
+    pub driver: Option<String>,
+    /// Why the CPU ran instead of the requested or available GPU (null when it did not).
+    pub fallback: Option<String>,
 }
 
 /// `"front"`: [`SurfaceResult::side`] of reports written before it existed.
@@ -205,6 +229,14 @@ pub struct Statistics {
     pub kernel_evaluations: u64,
     /// Shadow rays of the solver.
     pub solver_rays: u64,
+    /// Rays traced on the GPU (`--device gpu|auto`; the global cube's pixel rays;
+    /// null when no GPU kernel ran).
+    #[serde(default)]
+    pub device_rays: Option<u64>,
+    /// Rays of GPU-capable kernels the CPU traced instead after a device failure (null
+    /// when no GPU kernel ran).
+    #[serde(default)]
+    pub deferred_rays: Option<u64>,
     /// Primary rays of the image.
     pub primary_rays: u64,
     /// Final-gather rays.

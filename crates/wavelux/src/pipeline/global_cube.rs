@@ -16,7 +16,8 @@ use wavelux::render::{ToneMap, image::write_bytes_atomic};
 use wavelux::scene::Scene;
 use wavelux::volume::{
     CpuProjector, GammaMode, GlobalCubeConfig, Oracle, Projection, Relaxation, Threshold,
-    VolumeGrid, VolumeSolution, backend::cpu::MAX_RECEIVER_SAMPLES,
+    VolumeGrid, VolumeSolution,
+    backend::cpu::{AntiAlias, MAX_RECEIVER_SAMPLES},
 };
 
 use super::{Job, Method, Outcome, name_of, secs};
@@ -39,7 +40,12 @@ struct GlobalCube {
     config: GlobalCubeConfig,
     /// `--receiver-samples` of the CPU projector.
     receiver_samples: u32,
+    /// `--supersample`: sub-pixels per side of the adaptive supersampling (1: off).
+    supersample: u32,
 }
+
+/// Largest `--supersample`.
+const MAX_SUPERSAMPLE: u32 = 16;
 
 /// The global cube's plan: `--levels`, `--framebuffer`, `--threshold[-source|
 /// -opacity|-chi]`, `--oracle`, `--relaxations`, `--tolerance`, `--max-iterations`,
@@ -49,9 +55,14 @@ pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
     if !(1..=MAX_RECEIVER_SAMPLES).contains(&k) {
         bail!("--receiver-samples {k} outside 1..={MAX_RECEIVER_SAMPLES}");
     }
+    let s = a.volume.supersample;
+    if !(1..=MAX_SUPERSAMPLE).contains(&s) {
+        bail!("--supersample {s} outside 1..={MAX_SUPERSAMPLE}");
+    }
     Ok(Box::new(GlobalCube {
         config: config(a)?,
         receiver_samples: k,
+        supersample: s,
     }))
 }
 
@@ -174,6 +185,7 @@ impl Method for GlobalCube {
             global_cube: serde_json::to_value(c).ok().map(|mut v| {
                 if let Some(o) = v.as_object_mut() {
                     o.insert("receiver_samples".into(), self.receiver_samples.into());
+                    o.insert("supersample".into(), self.supersample.into());
                 }
                 v
             }),
@@ -188,16 +200,37 @@ impl Method for GlobalCube {
         stats.time_s.setup = secs(t.elapsed());
 
         let t = Instant::now();
-        let projector = CpuProjector::new(self.config.projection, Default::default())
+        let antialias = match self.supersample {
+            1 => AntiAlias::OFF,
+            s => AntiAlias {
+                subdivisions: s,
+                ..AntiAlias::default()
+            },
+        };
+        let cpu = CpuProjector::new(self.config.projection, antialias)
             .with_receiver_samples(self.receiver_samples);
         let sp = progress::spinner(job.show_progress, "global cube");
-        let sol = wavelux::volume::solve(&grid, &self.config, &projector, &mut |r| {
+        let mut on_step = |r: &wavelux::volume::StepRecord| {
             sp.set_message(format!(
                 "global cube: level {} {} step {}: {} cells, update {:.2e}",
                 r.level, r.kind, r.step, r.elements, r.max_update
             ));
-        })
-        .with_context(|| format!("global cube solve of {:?}", grid.name))?;
+        };
+        #[cfg(feature = "gpu")]
+        let sol = match job.device.gpu() {
+            Some(gpu) => {
+                let p = super::device::FallbackProjector::new(
+                    wavelux::gpu::GpuProjector::new(gpu),
+                    cpu,
+                    job.device,
+                );
+                wavelux::volume::solve(&grid, &self.config, &p, &mut on_step)
+            }
+            None => wavelux::volume::solve(&grid, &self.config, &cpu, &mut on_step),
+        };
+        #[cfg(not(feature = "gpu"))]
+        let sol = wavelux::volume::solve(&grid, &self.config, &cpu, &mut on_step);
+        let sol = sol.with_context(|| format!("global cube solve of {:?}", grid.name))?;
         sp.finish_and_clear();
         stats.time_s.solve = secs(t.elapsed());
         stats.elements = sol.elements();
@@ -235,6 +268,30 @@ impl Method for GlobalCube {
             image,
             solution: None,
         })
+    }
+
+    /// The GPU projector ([`wavelux::gpu::GpuProjector`] in `gpu` builds) is the exact
+    /// projection with one ray per pixel from one receiver sample.
+    fn gpu_kernel(&self) -> Result<(), String> {
+        let mut missing = Vec::new();
+        if self.config.projection != Projection::Exact {
+            missing.push("--projection pyramid");
+        }
+        if self.receiver_samples != 1 {
+            missing.push("--receiver-samples above 1");
+        }
+        if self.supersample != 1 {
+            missing.push("--supersample above 1 (the default 8)");
+        }
+        if missing.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "the GPU projector computes the exact projection with one ray per pixel \
+                 (--projection exact --receiver-samples 1 --supersample 1) and has no {}",
+                missing.join(", no ")
+            ))
+        }
     }
 
     fn describe(&self, r: &report::Result) -> String {

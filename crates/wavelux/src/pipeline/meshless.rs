@@ -2,7 +2,7 @@
 //! direct-to-indirect transfer (Meshless §2–§3). One frame lit by the scene's punctual
 //! lights and its area emitters: precompute `T` and `S` (or read them from
 //! `--transfer`), project the direct irradiance at the sender points (`e = P†E←`),
-//! `i = S·e` on the CPU backend, and show `E + ρ(E_dir + n·i)` ([`MeshlessField`]).
+//! `i = S·e` on the CPU backend (or the GPU's with `--device`), and show `E + ρ(E_dir + n·i)` ([`MeshlessField`]).
 //! Surface averages come from the field on a tessellation of the exact primitives
 //! (`export::field_surface_averages`), so the path-traced error check applies as for
 //! every other method.
@@ -11,8 +11,8 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use wavelux::meshless::{
-    CpuBackend, DirectLighting, MeshlessConfig, PrecomputeStats, Precomputed, Relighter,
-    SceneSurfaces, scene_hash,
+    DirectLighting, MeshlessConfig, PrecomputeStats, Precomputed, Relighter, SceneSurfaces,
+    scene_hash,
 };
 use wavelux::render::{Component, IndirectSource, MeshlessField, RenderOptions};
 use wavelux::scene::Scene;
@@ -104,7 +104,7 @@ impl Method for Meshless {
             });
         }
         let direct = DirectLighting::Sum(parts);
-        let relighter = Relighter::new(&pre, CpuBackend)?;
+        let relighter = Relighter::new(&pre, super::device::DeviceTransfer::new(job.device))?;
         let indirect = relighter
             .relight_with(&query, &direct)
             .context("meshless relighting")?;
@@ -193,6 +193,12 @@ impl Method for Meshless {
             error_estimate_skipped,
             warnings: warned,
         })
+    }
+
+    /// The relighting product `S·e` runs on the GPU (`wavelux_gpu::GpuTransfer`); the
+    /// precomputation stays on the CPU.
+    fn gpu_kernel(&self) -> Result<(), String> {
+        Ok(())
     }
 
     fn describe(&self, r: &report::Result) -> String {

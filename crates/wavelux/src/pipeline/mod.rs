@@ -10,6 +10,7 @@
 //! [`Solution`]). Adding a method
 //! is a new module, a `MethodArg` variant and one arm in [`plan`].
 
+mod device;
 mod error_check;
 mod gather;
 mod global_cube;
@@ -34,6 +35,7 @@ use wavelux::render::{Image, ReferenceOptions, View};
 use wavelux::scene::Scene;
 use wavelux::solver::Solution;
 
+pub use device::NoDevice;
 pub use relight::run as relight;
 pub use scenes::{list_scenes, load_scene};
 pub use texels::{SCHEMA as TEXEL_SCHEMA, TexelFile, grid_of as texel_grid, read as read_texels};
@@ -52,6 +54,11 @@ pub trait Method {
     fn run(&self, job: &Job<'_>, stats: &mut report::Statistics) -> anyhow::Result<Outcome>;
     /// The summary's `method` line (after `  method      `).
     fn describe(&self, r: &report::Result) -> String;
+    /// Whether the method has a GPU kernel for its settings (`--device`); `Err` says
+    /// why not.
+    fn gpu_kernel(&self) -> Result<(), String> {
+        Err("this method has no GPU kernel yet".into())
+    }
 }
 
 /// What a method runs on.
@@ -68,6 +75,8 @@ pub struct Job<'a> {
     pub show_progress: bool,
     /// Options of every Monte Carlo estimate (seeded by `--seed`).
     pub reference: ReferenceOptions,
+    /// The device of the method's GPU kernels (`--device`).
+    pub device: &'a device::Device,
 }
 
 /// What a method produced.
@@ -122,8 +131,12 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
     let (scene, stem) = load_scene(&a.scene, mesh_grouping(a))?;
     let t_load = t_start.elapsed();
     let method = plan(a)?;
-    let info = method.info(base_info(a, threads));
+    let mut info = method.info(base_info(a, threads));
     let mut warned = warnings::from_scene(&scene);
+    let kernel = method
+        .gpu_kernel()
+        .map_err(|why| format!("--method {}: {why}", info.name));
+    let device = device::choose(a.device, kernel, &mut warned)?;
     warned.extend(warnings::unmodelled(&scene, &info.name, &a.scene));
     warnings::strict(a.strict, &warned)?;
     warnings::print(&warned);
@@ -147,8 +160,11 @@ pub fn run(a: &SolveArgs, cam: Option<&CameraArgs>) -> anyhow::Result<()> {
             seed: a.seed,
             ..ReferenceOptions::default()
         },
+        device: &device,
     };
     let mut outcome = method.run(&job, &mut stats)?;
+    info.device = Some(device.info());
+    (stats.device_rays, stats.deferred_rays) = device.rays();
     warnings::strict(a.strict, &outcome.warnings)?;
     warnings::print(&outcome.warnings);
     warned.append(&mut outcome.warnings);
@@ -242,6 +258,7 @@ fn base_info(a: &SolveArgs, threads: usize) -> report::MethodInfo {
         meshless: None,
         glossy: None,
         global_cube: None,
+        device: None,
         samples: a.samples,
         threads,
         seed: a.seed,

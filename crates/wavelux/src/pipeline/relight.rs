@@ -14,7 +14,7 @@ use glam::DVec3;
 use serde::Deserialize;
 use serde_json::json;
 use wavelux::meshless::direct::validate_lights;
-use wavelux::meshless::{CpuBackend, DirectLighting, Relighter, SceneSurfaces};
+use wavelux::meshless::{DirectLighting, Relighter, SceneSurfaces};
 use wavelux::render::export::{field_surface_averages, write_field_gltf, write_field_lightmaps};
 use wavelux::render::{Component, IndirectSource, MeshlessField, RenderOptions, ToneMap};
 use wavelux::scene::{Light, Rgb, Scene};
@@ -48,6 +48,7 @@ pub fn run(r: &RelightArgs) -> anyhow::Result<()> {
     let mut warned = warnings::from_scene(&scene);
     warned.extend(warnings::unmodelled(&scene, "meshless", &a.scene));
     warned.extend(meshless::unsampled_emitters(&query, &a.scene));
+    let device = super::device::choose(a.device, Ok(()), &mut warned)?;
     warnings::strict(a.strict, &warned)?;
     warnings::print(&warned);
     let frames = frames(r, &scene)?;
@@ -64,7 +65,7 @@ pub fn run(r: &RelightArgs) -> anyhow::Result<()> {
     let t = Instant::now();
     let (pre, loaded) = meshless::precompute(&scene, a, &config, show)?;
     let precompute_s = secs(t.elapsed());
-    let relighter = Relighter::new(&pre, CpuBackend)?;
+    let relighter = Relighter::new(&pre, super::device::DeviceTransfer::new(&device))?;
 
     let mut out_frames = Vec::new();
     for (k, lights) in frames.iter().enumerate() {
@@ -179,6 +180,7 @@ pub fn run(r: &RelightArgs) -> anyhow::Result<()> {
         "seed": a.seed,
         "transfer_loaded": loaded,
         "backend": relighter.backend_name(),
+        "device": device.info(),
         "precompute": super::meshless::reported_stats(&pre),
         "precompute_s": precompute_s,
         "runtime_bytes": pre.runtime_bytes(),
