@@ -78,8 +78,11 @@ fn gpu_transfer_meets_the_contract_against_the_cpu() {
     for g in gpus {
         for (label, backend) in [
             ("one chunk", GpuTransfer::new(g.clone())),
-            // 7 receivers per block, 4 KiB bindings: many blocks and chunks.
-            ("chunked", GpuTransfer::new(g.clone()).with_limits(4096, 7)),
+            // 7 receivers per block, 64 KiB bindings: 109 blocks in dozens of chunks.
+            (
+                "chunked",
+                GpuTransfer::new(g.clone()).with_limits(1 << 16, 7),
+            ),
         ] {
             let prep = backend.prepare(&pre.s).unwrap();
             let mut worst = 0.0f64;

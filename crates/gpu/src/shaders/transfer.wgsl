@@ -16,7 +16,7 @@ struct Params {
     // Senders (columns).
     cols: u32,
     // Active senders (entries of `active`).
-    active: u32,
+    nactive: u32,
     // Workgroups along x of the dispatch.
     groups_x: u32,
     pad0: u32,
@@ -33,7 +33,7 @@ struct Params {
 // Three scaled values per sender (RGB).
 @group(0) @binding(4) var<storage, read> e: array<f32>;
 // The active senders, increasing.
-@group(0) @binding(5) var<storage, read> active: array<u32>;
+@group(0) @binding(5) var<storage, read> senders: array<u32>;
 // Eighteen words per receiver of the chunk: nine sums, then nine compensations.
 @group(0) @binding(6) var<storage, read_write> acc: array<f32>;
 
@@ -52,8 +52,8 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     }
     storageBarrier();
     let base = b * (p.cols + 1u);
-    for (var k = 0u; k < p.active; k++) {
-        let j = active[k];
+    for (var k = 0u; k < p.nactive; k++) {
+        let j = senders[k];
         let s = col_ptr[base + j];
         let t = col_ptr[base + j + 1u];
         let ej = vec3<f32>(e[3u * j], e[3u * j + 1u], e[3u * j + 2u]);

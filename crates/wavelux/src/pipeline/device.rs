@@ -110,7 +110,8 @@ impl Device {
         c.fetch_add(rays, Ordering::Relaxed);
     }
 
-    /// Whether the method's kernels were to run on the GPU.
+    /// Whether the method's kernels run on the GPU (until a device failure).
+    #[cfg(any(feature = "gpu", test))]
     pub fn on_gpu(&self) -> bool {
         self.adapter.is_some() && self.fallback_reason().is_none()
     }
