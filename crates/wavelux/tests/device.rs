@@ -128,21 +128,30 @@ fn auto_records_why_it_used_the_cpu() -> Result<()> {
     Ok(())
 }
 
-/// The GPU runs the global cube's projection; every result agrees with the CPU's
-/// within what the f32 projector's tie rule allows (see the test's comments).
+/// The wgpu adapter the GPU tests run on, or `None` after printing `SKIPPED` (a
+/// missing adapter fails instead under `WAVELUX_REQUIRE_ADAPTER=1`).
 #[cfg(feature = "gpu")]
-#[test]
-fn the_global_cube_on_the_gpu_agrees_with_the_cpu() -> Result<()> {
-    let gpu = match wavelux::gpu::Gpu::new() {
-        Ok(g) => g,
+fn adapter() -> Option<std::sync::Arc<wavelux::gpu::Gpu>> {
+    match wavelux::gpu::Gpu::new() {
+        Ok(g) => Some(g),
         Err(e) => {
             assert!(
                 std::env::var("WAVELUX_REQUIRE_ADAPTER").as_deref() != Ok("1"),
                 "no wgpu adapter and WAVELUX_REQUIRE_ADAPTER=1: {e}"
             );
             eprintln!("SKIPPED: no wgpu adapter ({e})");
-            return Ok(());
+            None
         }
+    }
+}
+
+/// The GPU runs the global cube's projection; every result agrees with the CPU's
+/// within what the f32 projector's tie rule allows (see the test's comments).
+#[cfg(feature = "gpu")]
+#[test]
+fn the_global_cube_on_the_gpu_agrees_with_the_cpu() -> Result<()> {
+    let Some(gpu) = adapter() else {
+        return Ok(());
     };
     let a = gpu.adapter().clone();
     drop(gpu);
@@ -210,44 +219,22 @@ fn the_global_cube_on_the_gpu_agrees_with_the_cpu() -> Result<()> {
 #[cfg(feature = "gpu")]
 #[test]
 fn relight_on_the_gpu_agrees_with_the_cpu() -> Result<()> {
-    if let Err(e) = wavelux::gpu::Gpu::new() {
-        assert!(
-            std::env::var("WAVELUX_REQUIRE_ADAPTER").as_deref() != Ok("1"),
-            "no wgpu adapter and WAVELUX_REQUIRE_ADAPTER=1: {e}"
-        );
-        eprintln!("SKIPPED: no wgpu adapter ({e})");
+    if adapter().is_none() {
         return Ok(());
     }
     let dir = tempfile::tempdir()?;
     let relight = |device: &str| -> Result<Value> {
-        let out = Command::new(EXE)
-            .args([
-                "relight",
-                "builtin:cornell-box",
-                "--levels",
-                "2",
-                "--sender-levels",
-                "1",
-                "--gather-rays",
-                "16",
-                "--emitter-samples",
-                "4",
-                "--no-image",
-                "--quiet",
-                "--light",
-                "point:pos=0.1,0.3,0.2,rgb=0.5,0.4,0.3",
-                "--device",
-                device,
-                "--out",
-                "out",
-            ])
-            .current_dir(dir.path())
-            .output()?;
-        anyhow::ensure!(
-            out.status.success(),
-            "relight --device {device}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        let mut args = vec!["relight", "builtin:cornell-box"];
+        args.extend_from_slice(common::MESHLESS_SMALL);
+        args.extend_from_slice(&[
+            "--light",
+            "point:pos=0.1,0.3,0.2,rgb=0.5,0.4,0.3",
+            "--device",
+            device,
+            "--out",
+            "out",
+        ]);
+        common::succeeds(&args, dir.path())?;
         let text = std::fs::read_to_string(dir.path().join("out/cornell.relight.json"))?;
         Ok(serde_json::from_str(&text)?)
     };

@@ -7,26 +7,12 @@ use anyhow::{Context, Result};
 use serde_json::Value;
 
 mod common;
-use common::{run, succeeds};
+use common::{MESHLESS_SMALL as SMALL, run, succeeds};
 
 /// Runs `wavelux ARGS` in `cwd`, which must succeed; returns its stderr (its warnings).
 fn ok(args: &[&str], cwd: &Path) -> Result<String> {
     Ok(String::from_utf8_lossy(&succeeds(args, cwd)?.stderr).into_owned())
 }
-
-/// Small meshless settings shared by the tests (a few seconds in the dev profile).
-const SMALL: &[&str] = &[
-    "--levels",
-    "2",
-    "--sender-levels",
-    "1",
-    "--gather-rays",
-    "16",
-    "--emitter-samples",
-    "4",
-    "--no-image",
-    "--quiet",
-];
 
 /// Per-surface `key` (RGB) of every frame of a relight JSON.
 fn per_frame(v: &Value, key: &str) -> Result<Vec<Vec<[f64; 3]>>> {

@@ -9,6 +9,21 @@ use std::process::{Command, Output};
 /// The `wavelux` executable Cargo built for these tests.
 pub const EXE: &str = env!("CARGO_BIN_EXE_wavelux");
 
+/// Small meshless settings shared by the meshless and device tests (a few seconds in
+/// the dev profile).
+pub const MESHLESS_SMALL: &[&str] = &[
+    "--levels",
+    "2",
+    "--sender-levels",
+    "1",
+    "--gather-rays",
+    "16",
+    "--emitter-samples",
+    "4",
+    "--no-image",
+    "--quiet",
+];
+
 /// Runs `wavelux ARGS` in `cwd`; the exit status is not checked.
 pub fn run(args: &[&str], cwd: &Path) -> Output {
     Command::new(EXE)
