@@ -66,7 +66,6 @@ struct TexelJob {
 #[derive(Serialize)]
 struct Job {
     variant: &'static str,
-    flip_x: bool,
     meshes: Vec<Mesh>,
     camera: CameraJob,
     texels: TexelJob,
@@ -207,7 +206,6 @@ fn job(scene: &Scene, refs: &Refs, levels: &[(u64, usize)], dir: &Path) -> anyho
     };
     Ok(Job {
         variant: VARIANT,
-        flip_x: true,
         meshes,
         camera: CameraJob {
             origin: v.position.to_array(),
