@@ -3,6 +3,7 @@
 //! `cargo xtask reproduce-figures [--only ID ...] [--quick] [--list]` regenerates the
 //! papers' tables and figures beside our own numbers (see [`reproduce`]).
 
+mod cpu;
 mod open_failures;
 mod plot;
 mod report;

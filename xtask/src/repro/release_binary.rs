@@ -4,18 +4,20 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::time::Instant;
+
+use crate::cpu::{Elapsed, Stopwatch};
 
 /// Builds `target/release/wavelux`, runs it with `args` in a fresh temporary directory
 /// named after `tag` and timed by this run, and hands the directory to `read` for the
-/// outputs. Returns what `read` returns and the command's wall time (s). The directory
+/// outputs. Returns what `read` returns and the command's wall and CPU time (the CPU
+/// time of the waited-for child: every thread of the command). The directory
 /// is removed afterwards, whether the run succeeded or not; a non-zero exit is an
 /// error carrying the command's stderr.
 pub fn run_wavelux<T>(
     tag: &str,
     args: &[&str],
     read: impl FnOnce(&Path) -> anyhow::Result<T>,
-) -> anyhow::Result<(T, f64)> {
+) -> anyhow::Result<(T, Elapsed)> {
     let root: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
         .ok_or_else(|| anyhow::anyhow!("no workspace root"))?
@@ -27,12 +29,12 @@ pub fn run_wavelux<T>(
     anyhow::ensure!(st.success(), "cargo build --release -p wavelux failed");
     let dir = std::env::temp_dir().join(format!("wavelux-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
-    let t = Instant::now();
+    let t = Stopwatch::start();
     let out = Command::new(root.join("target/release/wavelux"))
         .args(args)
         .current_dir(&dir)
         .output()?;
-    let wall = t.elapsed().as_secs_f64();
+    let time = t.elapsed();
     let result = if out.status.success() {
         read(&dir)
     } else {
@@ -46,5 +48,5 @@ pub fn run_wavelux<T>(
         ))
     };
     let _ = std::fs::remove_dir_all(&dir);
-    Ok((result?, wall))
+    Ok((result?, time))
 }

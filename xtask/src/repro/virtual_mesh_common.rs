@@ -16,11 +16,11 @@
 //! reconstruction may move a ratio while still reproducing the claim (e.g. "halves the
 //! time" stays below 1). Wall-time ratios measured here also move by up to ~3×
 //! between runs on the shared machine (Table 3's natural 5×5 / constant: 3.07 in
-//! session 21, 1.08 in session 23 at load ~16, where the runs got ~10 % of a core);
-//! per-run CPU time would remove most of that (not yet measured).
+//! session 21, 1.08 in session 23 at load ~16, where the runs got ~10 % of a core), so
+//! the time rows compare the CPU time of each run ([`crate::cpu`]: all threads of the
+//! process during the run, 10 ms resolution), with the wall time shown beside it.
 
-use std::time::Instant;
-
+use crate::cpu::Stopwatch;
 use crate::plot::{Axis, Series, Style, xy_plot};
 use crate::report::{Figure, Row, Tolerance};
 use crate::reproduce::Ctx;
@@ -35,8 +35,11 @@ pub struct Measured {
     pub input_primitives: usize,
     /// Leaf elements at the end: VirtualMesh's "# final meshes".
     pub leaves: usize,
-    /// Wall time of the whole solve (supports, accelerator, shooting), seconds.
+    /// CPU time of the whole solve (supports, accelerator, shooting; all threads),
+    /// seconds; the wall time where `/proc` is unavailable.
     pub seconds: f64,
+    /// Wall time of the same solve, seconds (context: it depends on the machine's load).
+    pub wall_seconds: f64,
     /// Solver memory (`Statistics::bytes`: element trees, hierarchy, vectors), bytes.
     pub bytes: usize,
     /// Input primitives that shot at least once: VirtualMesh's "# shooting surfaces".
@@ -58,12 +61,13 @@ pub struct Measured {
 /// equal-area parametrization for `PushPull::Precomputed` and by their natural
 /// coordinates for `PushPull::Natural` (Table 3).
 pub fn measure(scene: &Scene, config: &ShootConfig) -> anyhow::Result<Measured> {
-    let t0 = Instant::now();
+    let sw = Stopwatch::start();
     let sol = shoot(scene, config)?;
-    let seconds = t0.elapsed().as_secs_f64();
+    let t = sw.elapsed();
+    let (seconds, wall_seconds) = (t.cpu_or_wall(), t.wall);
     let st = &sol.stats;
     eprintln!(
-        "  {}: {} basis, {} shots, {} leaves, {seconds:.1} s",
+        "  {}: {} basis, {} shots, {} leaves, {seconds:.1} s CPU, {wall_seconds:.1} s wall",
         scene.name,
         config.basis.name(),
         st.shots,
@@ -79,6 +83,7 @@ pub fn measure(scene: &Scene, config: &ShootConfig) -> anyhow::Result<Measured> 
         input_primitives: wavelux::scene::primitive_count(scene),
         leaves: st.leaves,
         seconds,
+        wall_seconds,
         bytes: st.bytes,
         shooting_surfaces: st.shooting_surfaces,
         shots: st.shots,
@@ -138,7 +143,7 @@ impl Quantity {
         match self {
             Self::Input => (m.input_primitives as f64, ""),
             Self::Leaves => (m.leaves as f64, ""),
-            Self::Time => (m.seconds, "s"),
+            Self::Time => (m.seconds, "CPU s"),
             Self::Memory => (m.bytes as f64 / 1e6, "MB"),
             Self::Shooting => (m.shooting_surfaces as f64, ""),
         }

@@ -68,8 +68,8 @@ fn comment(q: Quantity) -> Option<&'static str> {
              bay) was chosen to give the opera's mix, so this ratio is reported, not tested",
         ),
         Quantity::Time => Some(
-            "times are wall-clock on a shared 2-core machine, measured side by side in one \
-             process; the ratio, not the absolute value, is comparable",
+            "CPU time of each run (all threads), measured side by side in one process on a \
+             shared 2-core machine; the ratio, not the absolute value, is comparable",
         ),
         Quantity::Memory => Some(
             "ours is the solver's own byte count (element trees, hierarchy, vectors); the \
@@ -84,7 +84,11 @@ fn table_row(label: &str, m: &Measured) -> Vec<String> {
         label.into(),
         count(m.input_primitives),
         count(m.leaves),
-        fmt_num(m.seconds),
+        format!(
+            "{} CPU ({} wall)",
+            fmt_num(m.seconds),
+            fmt_num(m.wall_seconds)
+        ),
         fmt_num(m.bytes as f64 / 1e6),
         count(m.shooting_surfaces),
         format!("{:.4}", m.convergence),
@@ -189,7 +193,7 @@ finished, so the paper's setting is unmeasured.",
         "geometry",
         "# input prim.",
         "# final meshes",
-        "time (s)",
+        "time (s; ours: CPU, wall)",
         "memory (MB)",
         "# shooting surfaces",
         "convergence",

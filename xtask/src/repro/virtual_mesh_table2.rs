@@ -81,7 +81,11 @@ fn row(label: &str, basis: &str, m: &Measured, input: usize) -> Vec<String> {
         basis.into(),
         count(input),
         count(m.leaves),
-        fmt_num(m.seconds),
+        format!(
+            "{} CPU ({} wall)",
+            fmt_num(m.seconds),
+            fmt_num(m.wall_seconds)
+        ),
         fmt_num(m.bytes as f64 / 1e6),
         count(m.shooting_surfaces),
         format!("{:.4}", m.convergence),
@@ -205,10 +209,10 @@ patches; the M1 and M2 rows of the paper are listed for reference."
                      curved patches (body bands, spout, handle) needs the expensive near-field \
                      and singular quadrature while flat triangles are cheap; the paper's gain \
                      comes from hundreds of shots at 99 %, where 19 shooters beat 1,392. \
-                     Wall-clock on a shared, loaded 2-core machine, both runs in one process",
+                     CPU time of each run, both runs in one process",
                 ),
                 Quantity::Time => Some(
-                    "wall-clock on a shared 2-core machine, both runs in one process; compare the \
+                    "CPU time of each run (all threads), both runs in one process; compare the \
                      ratio",
                 ),
                 Quantity::Leaves => Some(
@@ -255,7 +259,7 @@ patches; the M1 and M2 rows of the paper are listed for reference."
         "basis",
         "# input prim.",
         "# final meshes",
-        "time (s)",
+        "time (s; ours: CPU, wall)",
         "memory (MB)",
         "# shooting surfaces",
         "convergence",

@@ -63,7 +63,11 @@ fn row(label: &str, points: &str, m: &Measured) -> Vec<String> {
     vec![
         label.into(),
         points.into(),
-        fmt_num(m.seconds),
+        format!(
+            "{} CPU ({} wall)",
+            fmt_num(m.seconds),
+            fmt_num(m.wall_seconds)
+        ),
         fmt_num(m.bytes as f64 / 1e6),
         count(m.leaves),
         count(m.shots),
@@ -207,7 +211,7 @@ settings are coarse for the same reason.",
     rep.param("min element area (m²)", cfg.min_area);
     rep.param("quick", ctx.quick);
 
-    let time_comment = "wall-clock on a shared 2-core machine, all runs in one process; compare the \
+    let time_comment = "CPU time of each run (all threads), all runs in one process; compare the \
                      ratio";
     for (k, g) in GAUSS.iter().enumerate() {
         let mut rows = ratio_rows(
@@ -363,7 +367,7 @@ settings are coarse for the same reason.",
         headers: [
             "mappings",
             "push-pull quadrature",
-            "time (s)",
+            "time (s; ours: CPU, wall)",
             "memory (MB)",
             "# final meshes",
             "shots",

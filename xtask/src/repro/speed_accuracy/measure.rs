@@ -1,8 +1,11 @@
 //! The references of one scene (surface averages, texels, a converged image, each
 //! with its noise floor) and the measurement of one run against them: every metric's
-//! error and the wall time it took to get there.
+//! error and the CPU time it took to get there ([`crate::cpu`]: every thread of this
+//! process, or of the Mitsuba process for its rows; wall time where `/proc` is
+//! unavailable), so that times of methods measured in one run compare their work and
+//! not the machine's load.
 
-use std::time::Instant;
+use crate::cpu::Stopwatch;
 
 use wavelux::render::{
     Image, PathTracer, ReferenceOptions, RenderOptions, SolutionField, SurfaceEstimate, TexelGrid,
@@ -83,7 +86,7 @@ pub struct Refs {
     /// one constant per surface side scores at best with exact means (an unrefined
     /// solution cannot do much better on a concentrated function).
     pub side_constant: f64,
-    /// Wall time of all references (s).
+    /// CPU time of all references (s).
     pub seconds: f64,
 }
 
@@ -114,7 +117,7 @@ impl Refs {
     /// Computes the references with the path tracer (seed `12345`; the image halves
     /// `12345` and `54321`).
     pub fn new(scene: &Scene, pt: &PathTracer, sz: &RefSizes) -> anyhow::Result<Refs> {
-        let t = Instant::now();
+        let t = Stopwatch::start();
         let ro = |seed| ReferenceOptions {
             seed,
             ..ReferenceOptions::default()
@@ -171,7 +174,7 @@ impl Refs {
                 0.5 * half_err,
             ],
             side_constant,
-            seconds: t.elapsed().as_secs_f64(),
+            seconds: t.elapsed().cpu_or_wall(),
         })
     }
 
@@ -207,21 +210,21 @@ fn side_means(grid: &TexelGrid, values: &[[f64; 3]]) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// One measured run: per metric, the wall time and the error (NaN: not measured).
+/// One measured run: per metric, the CPU time and the error (NaN: not measured).
 #[derive(Debug, Clone)]
 pub struct Point {
     /// Method label (a series in the plots).
     pub method: String,
     /// Its setting.
     pub setting: String,
-    /// Wall time per metric (s).
+    /// CPU time per metric (s; all threads).
     pub time: [f64; N],
     /// Error per metric.
     pub err: [f64; N],
 }
 
-/// Measures a solution computed in `solve_s` seconds: surface averages and texels at
-/// the solve time (plus the texel evaluation), images at the solve time plus their
+/// Measures a solution computed in `solve_s` CPU seconds: surface averages and texels
+/// at the solve time (plus the texel evaluation), images at the solve time plus their
 /// render time.
 pub fn measure_solution(
     method: &str,
@@ -241,19 +244,19 @@ pub fn measure_solution(
     };
     p.time[SURFACE] = solve_s;
     p.err[SURFACE] = surface_error(&b, &refs.surface, &refs.areas);
-    let t = Instant::now();
+    let t = Stopwatch::start();
     let field = SolutionField::new(sol)?;
-    let build = t.elapsed().as_secs_f64();
-    let t = Instant::now();
+    let build = t.elapsed().cpu_or_wall();
+    let t = Stopwatch::start();
     let tv = refs.grid.evaluate(&field);
-    p.time[TEXEL] = solve_s + build + t.elapsed().as_secs_f64();
+    p.time[TEXEL] = solve_s + build + t.elapsed().cpu_or_wall();
     p.err[TEXEL] = refs.texel_error(&tv.values)?;
     for (k, gather, direct) in [
         (IMAGE, 0, 0),
         (GATHER, GATHER_RAYS, 0),
         (DIRECT, 0, DIRECT_RAYS),
     ] {
-        let t = Instant::now();
+        let t = Stopwatch::start();
         let (img, _) = render(
             &field,
             &refs.view,
@@ -265,7 +268,7 @@ pub fn measure_solution(
             },
             &|_| {},
         )?;
-        p.time[k] = solve_s + build + t.elapsed().as_secs_f64();
+        p.time[k] = solve_s + build + t.elapsed().cpu_or_wall();
         p.err[k] = refs.image_error(&img)?;
     }
     Ok(p)
@@ -290,26 +293,27 @@ pub fn measure_path_tracer(
         time: [f64::NAN; N],
         err: [f64::NAN; N],
     };
-    let t = Instant::now();
+    let t = Stopwatch::start();
     let mut b = Vec::new();
     for s in 0..refs.surface.len() {
         b.push(pt.surface_average(s, samples, &po)?.mean);
     }
-    p.time[SURFACE] = t.elapsed().as_secs_f64();
+    p.time[SURFACE] = t.elapsed().cpu_or_wall();
     p.err[SURFACE] = surface_error(&b, &refs.surface, &refs.areas);
-    let t = Instant::now();
+    let t = Stopwatch::start();
     let tx = pt.texels(&refs.grid, paths, &po)?;
-    p.time[TEXEL] = t.elapsed().as_secs_f64();
+    p.time[TEXEL] = t.elapsed().cpu_or_wall();
     let vals: Vec<[f64; 3]> = tx.iter().map(|e| e.mean).collect();
     p.err[TEXEL] = refs.texel_error(&vals)?;
-    let t = Instant::now();
+    let t = Stopwatch::start();
     let img = pt.render(&refs.view, spp, &po, &|_| {})?;
-    p.time[IMAGE] = t.elapsed().as_secs_f64();
+    p.time[IMAGE] = t.elapsed().cpu_or_wall();
     p.err[IMAGE] = refs.image_error(&img)?;
     Ok(p)
 }
 
-/// An externally computed run (Mitsuba): texel values and an image, with their times.
+/// An externally computed run (Mitsuba): texel values and an image, with their CPU
+/// times (s).
 pub fn measure_external(
     method: &str,
     setting: &str,

@@ -9,8 +9,9 @@ result JSON: for each requested sample count, the wall time and the rendered ima
 path count the texel radiosities B = E + rho (H_direct + H_indirect), where H_direct
 comes from Mitsuba's emitter sampling at the texel (with its visibility test) and
 H_indirect from cosine-distributed rays whose incoming radiance is Mitsuba's `path`
-integrator minus the emission of the first hit. Times are wall times after one
-untimed warm-up of the same kernel (JIT compilation is not counted).
+integrator minus the emission of the first hit. Times are the CPU time of this
+process (every thread, `time.process_time`) after one untimed warm-up of the same
+kernel (JIT compilation is not counted), the wall time beside it.
 
 Usage: python3 mitsuba.py JOB.json RESULT.json
 """
@@ -141,15 +142,29 @@ def main():
     if job["image_spp"]:
         render(scene, 1, 1)  # warm-up (kernel compilation)
     for spp in job["image_spp"]:
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         px = render(scene, spp * spp, 7 + spp)
-        res["images"].append({"spp": spp, "seconds": time.perf_counter() - t, "pixels": px})
+        res["images"].append(
+            {
+                "spp": spp,
+                "seconds": time.process_time() - c,
+                "wall_seconds": time.perf_counter() - t,
+                "pixels": px,
+            }
+        )
     if job["texel_paths"]:
         texels(scene, job, 1, 1)  # warm-up
     for p in job["texel_paths"]:
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         v = texels(scene, job, p, 11 + p)
-        res["texels"].append({"paths": p, "seconds": time.perf_counter() - t, "values": v})
+        res["texels"].append(
+            {
+                "paths": p,
+                "seconds": time.process_time() - c,
+                "wall_seconds": time.perf_counter() - t,
+                "values": v,
+            }
+        )
     with open(sys.argv[2] + ".tmp", "w") as f:
         json.dump(res, f)
     os.replace(sys.argv[2] + ".tmp", sys.argv[2])

@@ -1,7 +1,8 @@
 //! Mitsuba 3 rows (issue 12 §1): when `python3 -c "import mitsuba"` works and its
 //! `llvm_ad_rgb` variant loads, the scene is exported to Mitsuba and its `path`
 //! integrator renders the same camera and estimates the same texels, timed in the same
-//! run as our methods (`mitsuba.py` beside this file does the Mitsuba side).
+//! run as our methods (`mitsuba.py` beside this file does the Mitsuba side), by the CPU
+//! time of the Mitsuba process like ours.
 //!
 //! The conversion: every scene surface becomes one PLY mesh — its exact primitives
 //! tessellated by `wavelux_geometry::tessellate` (planar pieces exactly, curved
@@ -76,6 +77,8 @@ struct Job {
 #[derive(Deserialize)]
 struct ImageOut {
     spp: usize,
+    /// CPU time of the Mitsuba process for this render (s; its wall time is also in
+    /// the JSON, unused).
     seconds: f64,
     pixels: Vec<f64>,
 }
@@ -83,6 +86,7 @@ struct ImageOut {
 #[derive(Deserialize)]
 struct TexelOut {
     paths: u64,
+    /// CPU time of the Mitsuba process for these texels (s).
     seconds: f64,
     values: Vec<f64>,
 }
