@@ -268,14 +268,17 @@ impl Gpu {
             })
     }
 
-    /// Submits `encoder`, then copies back `size` bytes of `staging` (a MAP_READ
-    /// buffer the encoder copied into) and waits.
+    /// Submits `encoder`, then copies back `size` bytes (a multiple of 4) of `staging`
+    /// (a MAP_READ buffer the encoder copied into) as 32-bit words, and waits. Every
+    /// kernel's readback goes through here: the words are decoded from the mapped
+    /// bytes one by one (`u32::from_ne_bytes`), never by casting a byte vector, whose
+    /// allocation need not be 4-byte aligned.
     pub(crate) fn submit_and_read(
         &self,
         encoder: wgpu::CommandEncoder,
         staging: &wgpu::Buffer,
         size: u64,
-    ) -> Result<Vec<u8>, GpuError> {
+    ) -> Result<Vec<u32>, GpuError> {
         self.queue.submit([encoder.finish()]);
         let slice = staging.slice(..size.max(4));
         let (tx, rx) = std::sync::mpsc::channel();
@@ -294,7 +297,10 @@ impl Gpu {
             let view = slice
                 .get_mapped_range()
                 .map_err(|e| self.fail(format!("mapped range: {e}")))?;
-            view[..size as usize].to_vec()
+            view[..size as usize]
+                .chunks_exact(4)
+                .map(|w| u32::from_ne_bytes([w[0], w[1], w[2], w[3]]))
+                .collect()
         };
         staging.unmap();
         Ok(out)

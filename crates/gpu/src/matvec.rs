@@ -295,7 +295,7 @@ impl Uploaded {
             .enumerate()
             .map(|(i, &v)| (v * 2f64.powi(-xe[i % k])) as f32)
             .collect();
-        let bytes = gpu.scoped(|| {
+        let words = gpu.scoped(|| {
             let q = gpu.queue();
             if !xs.is_empty() {
                 q.write_buffer(&self.x, 0, bytemuck::cast_slice(&xs));
@@ -333,10 +333,10 @@ impl Uploaded {
             }
             gpu.submit_and_read(enc, &self.staging, (self.rows * k * 8) as u64)
         })?;
-        let pairs: &[f32] = bytemuck::cast_slice(&bytes);
+        let pair = |j: usize| f64::from(f32::from_bits(words[j]));
         for (i, yi) in y.iter_mut().enumerate() {
             let s = 2f64.powi(self.exp + xe[i % k]);
-            *yi = (f64::from(pairs[2 * i]) + f64::from(pairs[2 * i + 1])) * s;
+            *yi = (pair(2 * i) + pair(2 * i + 1)) * s;
         }
         Ok(MatVecStats {
             entries: self.entries,

@@ -323,7 +323,7 @@ impl GpuOccluder<'_> {
 
     fn dispatch(&self, inner: &Inner, words: &[u32], n: usize) -> Result<Vec<u32>, GpuError> {
         let gpu = &self.gpu;
-        let bytes = gpu.scoped(|| {
+        let mut answers = gpu.scoped(|| {
             let q = gpu.queue();
             q.write_buffer(&inner.params, 0, bytemuck::cast_slice(&[n as u32, 0, 0, 0]));
             q.write_buffer(&inner.queries, 0, bytemuck::cast_slice(words));
@@ -345,7 +345,8 @@ impl GpuOccluder<'_> {
             enc.copy_buffer_to_buffer(&inner.answers, 0, &inner.staging, 0, (n * 4) as u64);
             gpu.submit_and_read(enc, &inner.staging, (n * 4) as u64)
         })?;
-        Ok(bytemuck::cast_slice::<u8, u32>(&bytes)[..n].to_vec())
+        answers.truncate(n);
+        Ok(answers)
     }
 }
 

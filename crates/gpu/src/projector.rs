@@ -27,16 +27,22 @@
 //! and the per-pixel sums are compensated (TwoSum per invocation and in the fixed
 //! tree of the workgroup reduction). Along a ray of `m` cells the radiance is within
 //! about `4 m u` relative of the f64 one (`m ≤ 3·64` at 64³: ≤ 5e-5 worst case,
-//! typically far less because errors of different cells do not align). The one
-//! discrete difference: where a ray crosses a cell edge exactly, the CPU steps across
-//! the faces in a tie order decided in f64, the GPU in f32; a tie decided
-//! differently changes which face's coefficient of the next cell the ray sees, or
-//! whether it grazes an opaque cell. Cube-map pixel centres hit edges exactly and
-//! systematically (|u| : |v| odd ratios), so with per-face emission or opaque cells
-//! the face powers of single receivers differ by up to ~10 % (measured on random
-//! grids), less than the CPU differs from itself under the cyclic axis rotation
-//! (an exact symmetry of the cube map), and the 1e-5 contract holds only where the
-//! projection is continuous in the ray (the tests check both).
+//! typically far less because errors of different cells do not align).
+//!
+//! Exact edge and corner crossings follow the CPU's tie rule: where a ray leaves a box
+//! across two or three faces at once, the crossing is the mean over every order of
+//! stepping across the tied axes (an opaque cell beside the edge stops the orders
+//! that meet it, the others enter the next cell through the mixture of faces they end
+//! on). The rule treats the axes alike, so neither projector depends on how the axes
+//! are labelled. Ties are decided by comparing crossing distances, in f64 on the CPU
+//! and in f32 here. Cube-map pixel centres on a face's diagonals (`|u| = |v|`) have
+//! equal tangent components bit for bit in both precisions, so their edge crossings
+//! are ties in both; a tie between the face axis and a tangent axis (`|u|` a ratio of
+//! crossing distances) can be decided differently, and then that ray sees another
+//! face's coefficient of the next cell or grazes an opaque cell the other does not.
+//! With per-face emission or opaque cells the 1e-5 contract therefore holds where the
+//! projection is continuous in the ray, and the rest is measured (the tests print
+//! and bound both).
 //!
 //! Not implemented here (the CPU projector has them): the pyramid projection and
 //! adaptive supersampling; [`GpuProjector`] is the exact, one-ray-per-pixel projector.
@@ -259,7 +265,7 @@ impl GpuProjector {
         let gpu = &self.gpu;
         let pipe = self.pipeline()?;
         let out_bytes = (jobs.len() * OUT_STRIDE * 4) as u64;
-        let bytes = gpu.scoped(|| {
+        let words = gpu.scoped(|| {
             let dev = gpu.device();
             let params = [
                 jobs.len() as u32,
@@ -326,7 +332,6 @@ impl GpuProjector {
             enc.copy_buffer_to_buffer(&obuf, 0, &staging, 0, out_bytes);
             gpu.submit_and_read(enc, &staging, out_bytes)
         })?;
-        let words: &[u32] = bytemuck::cast_slice(&bytes);
         Ok(words
             .chunks_exact(OUT_STRIDE)
             .map(|w| {

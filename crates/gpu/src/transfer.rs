@@ -328,7 +328,7 @@ fn apply(gpu: &Gpu, p: &GpuPreparedTransfer, e: &[f32], out: &mut [f32]) -> Resu
         .iter()
         .map(|&v| (f64::from(v) * 2f64.powi(-be)) as f32)
         .collect();
-    let bytes = gpu.scoped(|| {
+    let words = gpu.scoped(|| {
         let q = gpu.queue();
         if !es.is_empty() {
             q.write_buffer(&p.e, 0, bytemuck::cast_slice(&es));
@@ -375,10 +375,7 @@ fn apply(gpu: &Gpu, p: &GpuPreparedTransfer, e: &[f32], out: &mut [f32]) -> Resu
         }
         gpu.submit_and_read(enc, &p.staging, (p.rows * ACC * 4) as u64)
     })?;
-    let words: Vec<f32> = bytes
-        .chunks_exact(4)
-        .map(|w| f32::from_ne_bytes([w[0], w[1], w[2], w[3]]))
-        .collect();
+    let words: Vec<f32> = words.into_iter().map(f32::from_bits).collect();
     let s = 2f64.powi(p.exp + be);
     for (i, o) in out.chunks_mut(9).enumerate() {
         let a = &words[i * ACC..(i + 1) * ACC];

@@ -4,9 +4,10 @@
 //! random dyadic grids 8³–32³ (empty, thin and thick cells, coarse leaves, odd and
 //! even framebuffers, both collision modes) within 1e-5 of each receiver's largest
 //! face power where the projection is continuous in the ray, and otherwise (opaque
-//! cells, per-face emission: rays through cell edges) as close to the CPU as the GPU
-//! is to itself under the cyclic axis rotation (the WGSL lacks the CPU's symmetric tie
-//! rule); bitwise repeatability, chunked
+//! cells, per-face emission: rays through cell edges) invariant under the cyclic axis
+//! rotation like the CPU (both use the mean over the orders of the tied axes) and
+//! within measured bounds of it (ties decided in f32 and in f64); bitwise
+//! repeatability, chunked
 //! dispatches equal to one, an opaque wall that zeroes everything behind it, the
 //! escape sum, and typed errors for bad input.
 
@@ -24,6 +25,19 @@ use wavelux_volume::cell::{Collision, total_weight};
 
 /// The contract of issue 17 (c).
 const CONTRACT: f64 = 1e-5;
+
+/// Tie-sensitive grids (opaque cells, per-face emission): the GPU–CPU difference of the
+/// total power and of the worst face (relative to the receiver's largest). Both
+/// projectors take the mean over the orders of the tied axes, but a tie between
+/// crossing distances is decided in f64 on the CPU and in f32 on the GPU: the
+/// diagonal pixels' ties (`|u| = |v|`) are exact in both, the odd-ratio ones
+/// (`|u| : |v| = 1 : 3`, …) are ties or not by rounding, differently in each precision;
+/// each such ray sees another face's coefficient of the next cell. Measured on
+/// lavapipe 2026-11-25: totals 2.4e-4, 4.9e-4, 3.5e-4 and worst faces 3.9e-2, 5.5e-2,
+/// 5.2e-2 at 8³, 16³, 32³; with the lowest-axis-first rule the worst faces were
+/// 0.17, 0.16, 0.09. A wrong kernel is off by O(1).
+const TIE_TOTAL: f64 = 2e-3;
+const TIE_FACE: f64 = 0.1;
 
 struct Scene {
     side: usize,
@@ -299,16 +313,14 @@ fn rotated_gather(p: &dyn Projector, s: &Scene, rec: &[Receiver]) -> anyhow::Res
 
 /// With opaque cells and per-face emission, a ray through a cell edge enters the
 /// next cells in an order the traversal decides by comparing crossing distances,
-/// and cube-map pixel centres hit edges exactly and systematically (|u| : |v| odd
-/// ratios). The CPU averages over every order of stepping across the tied axes (its
-/// tie rule, `wavelux_volume::backend::cpu`), so it does not depend on how the axes
-/// are labelled (rotation spread ~1e-15, checked here); the WGSL projector does not
-/// have that rule yet (it steps across the lowest tied axis first, in f32), so its
-/// face powers jump with the decision. Until it does, the bound is the GPU's own
-/// spread under the same exact symmetry (the cyclic axis rotation): the GPU must be at
-/// least as close to the CPU as it is to its rotated self, per face and in total power.
+/// and cube-map pixel centres hit edges exactly and systematically. Both projectors
+/// take the mean over every order of stepping across the tied axes, so neither
+/// depends on how the axes are labelled: each is invariant under the cyclic axis
+/// rotation (an exact symmetry of the cube map), the CPU to 1e-12, the GPU to its f32
+/// sums (1e-6). What remains between them is where a tie is decided differently
+/// in f32 and in f64 (printed and bounded below).
 #[test]
-fn tie_sensitive_grids_agree_as_well_as_the_cpu_with_itself() -> anyhow::Result<()> {
+fn tie_sensitive_grids_are_rotation_invariant_and_agree_with_the_cpu() -> anyhow::Result<()> {
     let cpu = CpuProjector::new(Projection::Exact, AntiAlias::OFF);
     for gpu in common::gpus("projector tie-sensitive grids") {
         let p = GpuProjector::new(gpu);
@@ -337,13 +349,16 @@ fn tie_sensitive_grids_agree_as_well_as_the_cpu_with_itself() -> anyhow::Result<
                  {tot_gpu:.3e}, gpu–rotated gpu {tot_rot:.3e}, cpu–rotated cpu {tot_cpu:.3e}",
                 rec.len()
             );
-            // The CPU's tie rule is invariant under the rotation.
             assert!(
                 face_cpu <= 1e-12,
                 "{side}³: CPU rotation spread {face_cpu:e}"
             );
-            assert!(face_gpu <= face_rot, "{side}³: {face_gpu:e} > {face_rot:e}");
-            assert!(tot_gpu <= tot_rot, "{side}³: {tot_gpu:e} > {tot_rot:e}");
+            assert!(
+                face_rot <= 1e-6,
+                "{side}³: GPU rotation spread {face_rot:e}"
+            );
+            assert!(tot_gpu <= TIE_TOTAL, "{side}³: total {tot_gpu:e}");
+            assert!(face_gpu <= TIE_FACE, "{side}³: worst face {face_gpu:e}");
         }
     }
     Ok(())

@@ -182,12 +182,13 @@ fn the_global_cube_on_the_gpu_agrees_with_the_cpu() -> Result<()> {
         v["statistics"]["volume"]["projector"]
     );
     // The energy account: the same emitted power; absorbed and escaped power within
-    // 5e-2 relative. Per receiver the GPU is within 1e-5 of the CPU where the
+    // 1e-2 relative. Per receiver the GPU is within 1e-5 of the CPU where the
     // projection is continuous in the ray; where a cube-map pixel centre crosses a cell
-    // edge exactly, the CPU takes the mean over the orders of the tied axes (182abe9)
-    // while the WGSL still steps across the lowest tied axis first (the port is an
-    // open item of issue 17), which moved the lounge's absorbed power by 2.1 % here
-    // (measured 2026-11-25 on lavapipe). A wrong kernel is off by O(1).
+    // edge exactly both take the mean over the orders of the tied axes, but a tie is
+    // decided in f64 on the CPU and in f32 on the GPU (wavelux_gpu::projector), which
+    // moves the lounge's absorbed power by 1.2e-3 and its escaped power by 3.4e-3
+    // (measured 2026-11-25 on lavapipe; absorbed 2.1e-2 before the WGSL had the rule).
+    // A wrong kernel is off by O(1).
     let (c, g) = (&cpu["statistics"]["volume"], &v["statistics"]["volume"]);
     for key in ["emitted", "absorbed", "escaped"] {
         for ch in 0..3 {
@@ -195,7 +196,11 @@ fn the_global_cube_on_the_gpu_agrees_with_the_cpu() -> Result<()> {
                 c[key][ch].as_f64().context("cpu")?,
                 g[key][ch].as_f64().context("gpu")?,
             );
-            let tol = if key == "emitted" { 1e-12 } else { 5e-2 };
+            let tol = if key == "emitted" { 1e-12 } else { 1e-2 };
+            eprintln!(
+                "  {key}[{ch}]: cpu {x} gpu {y} relative {:.2e}",
+                ((x - y) / x).abs()
+            );
             assert!(
                 (x - y).abs() <= tol * x.abs(),
                 "{key}[{ch}]: cpu {x} gpu {y}"

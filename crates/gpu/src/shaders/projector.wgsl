@@ -83,23 +83,40 @@ struct Ray {
     o: vec3<f32>,
     d: vec3<f32>,
     t: f32,
+    // The first voxel crossed (unused when `inside` is 1).
     idx: vec3<i32>,
-    entry: u32,
+    // Entry weight per axis (the CPU's `entry`): the ray enters a cell through the face
+    // of axis a it meets moving along d with weight entry[a]; they sum to 1.
+    entry: vec3<f32>,
+    // 1: the ray starts inside the box (ilo, isize), which contributes nothing and is
+    // left by the same crossing rule as every other cell.
+    inside: u32,
+    ilo: vec3<i32>,
+    isize: i32,
+}
+
+// The voxel coordinate of x for a ray moving with component d: a position on a voxel
+// boundary goes to the side the ray moves to.
+fn voxel_coordinate(x: f32, d: f32) -> i32 {
+    let f = floor(x);
+    if (x == f && d < 0.0) {
+        return i32(f) - 1;
+    }
+    return i32(f);
 }
 
 fn start_voxel(o: vec3<f32>, d: vec3<f32>) -> vec3<i32> {
-    var idx: vec3<i32>;
-    for (var a = 0; a < 3; a = a + 1) {
-        let f = floor(o[a]);
-        if (o[a] == f && d[a] < 0.0) {
-            idx[a] = i32(f) - 1;
-        } else {
-            idx[a] = i32(f);
-        }
-    }
-    return idx;
+    return vec3<i32>(voxel_coordinate(o.x, d.x), voxel_coordinate(o.y, d.y),
+                     voxel_coordinate(o.z, d.z));
 }
 
+fn unit_entry(a: i32) -> vec3<f32> {
+    var e = vec3<f32>(0.0);
+    e[a] = 1.0;
+    return e;
+}
+
+// The ray from the centre of face `face` of the box [lo, lo + size) along d.
 fn face_ray(lo: vec3<i32>, size: i32, face: u32, d: vec3<f32>) -> Ray {
     let axis = i32(face / 2u);
     let negative = (face % 2u) == 1u;
@@ -115,56 +132,54 @@ fn face_ray(lo: vec3<i32>, size: i32, face: u32, d: vec3<f32>) -> Ray {
     } else {
         idx[axis] = lo[axis] + size;
     }
-    return Ray(o, d, 0.0, idx, face ^ 1u);
+    return Ray(o, d, 0.0, idx, unit_entry(axis), 0u, lo, size);
 }
 
+// The ray from the centre of the box along d, started inside it.
 fn centre_ray(lo: vec3<i32>, size: i32, d: vec3<f32>) -> Ray {
     let o = vec3<f32>(lo) + 0.5 * f32(size);
-    let hi = lo + vec3<i32>(size);
-    var ta = vec3<f32>(BIG);
-    var te = BIG;
-    for (var a = 0; a < 3; a = a + 1) {
-        if (d[a] > 0.0) {
-            ta[a] = (f32(hi[a]) - o[a]) / d[a];
-        } else if (d[a] < 0.0) {
-            ta[a] = (f32(lo[a]) - o[a]) / d[a];
-        }
-        te = min(te, ta[a]);
-    }
-    var step = 2;
-    if (ta.x == te) {
-        step = 0;
-    } else if (ta.y == te) {
-        step = 1;
-    }
-    var idx: vec3<i32>;
-    for (var a = 0; a < 3; a = a + 1) {
-        if (a == step) {
-            if (d[a] > 0.0) {
-                idx[a] = hi[a];
-            } else {
-                idx[a] = lo[a] - 1;
-            }
-        } else {
-            idx[a] = clamp(i32(floor(o[a] + te * d[a])), lo[a], hi[a] - 1);
-        }
-    }
-    // The ray enters the next cell through its face opposite to the direction.
-    var entry = 2u * u32(step);
-    if (d[step] > 0.0) {
-        entry = entry + 1u;
-    }
-    return Ray(o, d, te, idx, entry);
+    return Ray(o, d, 0.0, lo, unit_entry(0), 1u, lo, size);
 }
 
-// Front-to-back compositing along `ray` (the CPU projector's `trace`, exact cells).
-fn trace(ray: Ray) -> vec3<f32> {
+// The active cell containing voxel idx, or -1 outside the grid.
+fn cell_at(idx: vec3<i32>) -> i32 {
     let n = params.side;
+    if (any(idx < vec3<i32>(0)) || any(idx >= vec3<i32>(n))) {
+        return -1;
+    }
+    return i32(cmap[u32(idx.x + n * (idx.y + n * idx.z))]);
+}
+
+// The emission a ray entering cell ci with entry weights `entry` along d sees.
+fn emission_of(ci: u32, entry: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
+    var e = vec3<f32>(0.0);
+    for (var a = 0; a < 3; a = a + 1) {
+        if (entry[a] != 0.0) {
+            var f = 2u * u32(a);
+            if (d[a] > 0.0) {
+                f = f + 1u;
+            }
+            let b = ci * 18u + f * 3u;
+            e = e + entry[a] * vec3<f32>(emis[b], emis[b + 1u], emis[b + 2u]);
+        }
+    }
+    return e;
+}
+
+// Front-to-back compositing along `ray` (the CPU projector's `trace`, exact cells),
+// with its crossing rule: where a ray leaves a box across two or three faces at once
+// (an exact edge or corner crossing), the crossing is the mean over every order of
+// stepping across the tied axes; in each order an opaque cell beside the edge stops
+// the ray (contributing its emission), the fraction of orders that pass multiplies
+// the transmittance, and the ray enters the cell beyond through the mixture of faces
+// the passing orders end on.
+fn trace(ray: Ray) -> vec3<f32> {
     let o = ray.o;
     let d = ray.d;
     var t = ray.t;
     var idx = ray.idx;
     var entry = ray.entry;
+    var inside = ray.inside;
     var inv = vec3<f32>(0.0);
     for (var a = 0; a < 3; a = a + 1) {
         if (d[a] != 0.0) {
@@ -174,14 +189,27 @@ fn trace(ray: Ray) -> vec3<f32> {
     var rad = vec3<f32>(0.0);
     var trans = 1.0;
     loop {
-        if (any(idx < vec3<i32>(0)) || any(idx >= vec3<i32>(n))) {
-            break;
+        var lo: vec3<i32>;
+        var size: i32;
+        var ext = 0.0;
+        var ci = 0u;
+        let contributes = inside == 0u;
+        if (inside == 1u) {
+            lo = ray.ilo;
+            size = ray.isize;
+            inside = 0u;
+        } else {
+            let c = cell_at(idx);
+            if (c < 0) {
+                break;
+            }
+            ci = u32(c);
+            let cell = cells[ci];
+            lo = vec3<i32>(cell.o);
+            size = i32(cell.size);
+            ext = cell.ext;
         }
-        let lin = u32(idx.x + n * (idx.y + n * idx.z));
-        let ci = cmap[lin];
-        let c = cells[ci];
-        let lo = vec3<i32>(c.o);
-        let hi = lo + vec3<i32>(i32(c.size));
+        let hi = lo + vec3<i32>(size);
         var ta = vec3<f32>(BIG);
         var te = BIG;
         for (var a = 0; a < 3; a = a + 1) {
@@ -192,48 +220,125 @@ fn trace(ray: Ray) -> vec3<f32> {
             }
             te = min(te, ta[a]);
         }
-        let len = max(te - t, 0.0);
-        let eb = ci * 18u + entry * 3u;
-        let e = vec3<f32>(emis[eb], emis[eb + 1u], emis[eb + 2u]);
-        steps = steps + 1u;
-        if (c.ext != 0.0) {
-            var tr = 0.0;
-            var alpha = 1.0;
-            if (c.ext > 0.0) {
-                let x = c.ext * len;
-                alpha = one_minus_exp(x);
-                tr = exp(-x);
-            }
-            rad = rad + (trans * alpha) * e;
-            trans = trans * tr;
-            if (trans < params.min_trans) {
-                break;
-            }
-        } else {
-            rad = rad + (trans * len * params.voxel) * e;
-        }
-        var step = 2;
-        if (ta.x == te) {
-            step = 0;
-        } else if (ta.y == te) {
-            step = 1;
-        }
-        for (var a = 0; a < 3; a = a + 1) {
-            if (a == step) {
-                if (d[a] > 0.0) {
-                    idx[a] = hi[a];
-                } else {
-                    idx[a] = lo[a] - 1;
+        if (contributes) {
+            let len = max(te - t, 0.0);
+            let e = emission_of(ci, entry, d);
+            steps = steps + 1u;
+            if (ext != 0.0) {
+                var tr = 0.0;
+                var alpha = 1.0;
+                if (ext > 0.0) {
+                    let x = ext * len;
+                    alpha = one_minus_exp(x);
+                    tr = exp(-x);
+                }
+                rad = rad + (trans * alpha) * e;
+                trans = trans * tr;
+                if (trans < params.min_trans) {
+                    break;
                 }
             } else {
-                idx[a] = clamp(i32(floor(o[a] + te * d[a])), lo[a], hi[a] - 1);
+                rad = rad + (trans * len * params.voxel) * e;
             }
         }
-        entry = 2u * u32(step);
-        if (d[step] > 0.0) {
-            entry = entry + 1u;
+        if (te >= BIG) {
+            break;
+        }
+        // The voxel beside the exit point inside the box, and the one across each
+        // exit face.
+        var base: vec3<i32>;
+        var stepped = vec3<i32>(0);
+        var tied = array<i32, 3>(0, 0, 0);
+        var n_tied = 0;
+        for (var a = 0; a < 3; a = a + 1) {
+            base[a] = clamp(voxel_coordinate(o[a] + te * d[a], d[a]), lo[a], hi[a] - 1);
+            if (ta[a] == te) {
+                if (d[a] > 0.0) {
+                    stepped[a] = hi[a];
+                    base[a] = hi[a] - 1;
+                } else {
+                    stepped[a] = lo[a] - 1;
+                    base[a] = lo[a];
+                }
+                tied[n_tied] = a;
+                n_tied = n_tied + 1;
+            }
+        }
+        idx = base;
+        for (var k = 0; k < n_tied; k = k + 1) {
+            idx[tied[k]] = stepped[tied[k]];
         }
         t = te;
+        if (n_tied == 1) {
+            entry = unit_entry(tied[0]);
+            continue;
+        }
+        // An exact edge (2 axes) or corner (3 axes) crossing: average the orders, in
+        // the CPU's order (edges: ascending, descending; corners: lexicographic).
+        let beyond = cell_at(idx);
+        var passed = 0;
+        var mix = vec3<f32>(0.0);
+        var stopped = vec3<f32>(0.0);
+        var orders = 2;
+        if (n_tied == 3) {
+            orders = 6;
+        }
+        for (var oi = 0; oi < orders; oi = oi + 1) {
+            var ord = array<i32, 3>(0, 0, 0);
+            if (n_tied == 2) {
+                if (oi == 0) {
+                    ord[0] = tied[0];
+                    ord[1] = tied[1];
+                } else {
+                    ord[0] = tied[1];
+                    ord[1] = tied[0];
+                }
+            } else {
+                // Permutation oi of (0, 1, 2) in lexicographic order.
+                let first = oi / 2;
+                let r0 = select(0, 1, first == 0);
+                let r1 = select(2, 1, first == 2);
+                ord[0] = first;
+                if (oi % 2 == 0) {
+                    ord[1] = r0;
+                    ord[2] = r1;
+                } else {
+                    ord[1] = r1;
+                    ord[2] = r0;
+                }
+            }
+            var at = base;
+            var last = ord[n_tied - 1];
+            var blocked = false;
+            for (var k = 0; k < n_tied - 1; k = k + 1) {
+                let a = ord[k];
+                at[a] = stepped[a];
+                let side = cell_at(at);
+                if (side < 0) {
+                    continue;
+                }
+                if (beyond >= 0 && side == beyond) {
+                    last = a;
+                    break;
+                }
+                if (cells[u32(side)].ext < 0.0) {
+                    stopped = stopped + emission_of(u32(side), unit_entry(a), d);
+                    steps = steps + 1u;
+                    blocked = true;
+                    break;
+                }
+            }
+            if (!blocked) {
+                passed = passed + 1;
+                mix[last] = mix[last] + 1.0;
+            }
+        }
+        rad = rad + trans * stopped / f32(orders);
+        trans = trans * f32(passed) / f32(orders);
+        if (passed == 0 || trans < params.min_trans) {
+            break;
+        }
+        entry = mix / f32(passed);
     }
     return rad;
 }
