@@ -437,6 +437,22 @@ impl<'a> TransferCtx<'a> {
         let ar = pr.support.area * r.h * r.h;
         let ae = pe.support.area * e.h * e.h;
         let scale = 1.0 / (ar * ae).sqrt();
+        // Piecewise constants between planar pieces that no blocker's shaft meets: the
+        // block is its exact constant entry alone (visible fraction one), so the
+        // quadrature, whose only use would be that fraction, is skipped.
+        if n == 1
+            && with_vis
+            && !shoot
+            && let Some(x) = self.exact_parts(r, e, &mut evals)
+        {
+            self.kernel_evals.fetch_add(evals, Ordering::Relaxed);
+            let seen = if x.constant > 0.0 {
+                LinkVisibility::Visible
+            } else {
+                LinkVisibility::Unknown
+            };
+            return (vec![x.constant * scale], seen);
+        }
         // A far pair's unanimous probe stands for the block's own rays.
         let probe = if shoot && self.is_far(r, e) {
             self.probe(r, e, &mut evals, &mut rays)
@@ -566,6 +582,10 @@ impl<'a> TransferCtx<'a> {
         let (mut evals, mut rays) = (0u64, 0u64);
         let cands = self.shaft_candidates(r, e, None);
         let shoot = cands.as_ref().is_none_or(|c| !c.is_empty());
+        if !shoot {
+            // No blocker's shaft meets the pair: wholly visible.
+            return Some(1.0);
+        }
         self.accumulate(
             r,
             e,
