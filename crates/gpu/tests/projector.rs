@@ -28,15 +28,18 @@ const CONTRACT: f64 = 1e-5;
 
 /// Tie-sensitive grids (opaque cells, per-face emission): the GPU–CPU difference of the
 /// total power and of the worst face (relative to the receiver's largest). Both
-/// projectors take the mean over the orders of the tied axes, but a tie between
-/// crossing distances is decided in f64 on the CPU and in f32 on the GPU: the
-/// diagonal pixels' ties (`|u| = |v|`) are exact in both, the odd-ratio ones
-/// (`|u| : |v| = 1 : 3`, …) are ties or not by rounding, differently in each precision;
-/// each such ray sees another face's coefficient of the next cell. Measured on
-/// lavapipe 2026-11-25: totals 2.4e-4, 4.9e-4, 3.5e-4 and worst faces 3.9e-2, 5.5e-2,
-/// 5.2e-2 at 8³, 16³, 32³; with the lowest-axis-first rule the worst faces were
-/// 0.17, 0.16, 0.09. A wrong kernel is off by O(1).
-const TIE_TOTAL: f64 = 2e-3;
+/// projectors take the mean over the orders of the tied axes and decide ties on the
+/// same f64 crossing distances, but leaving a coarse (4³) cell the exit point's other
+/// coordinates are f32 on the GPU and f64 on the CPU: where a ray passes exactly
+/// through an edge between two neighbouring voxels, each precision picks a side by
+/// rounding and that ray sees another cell (`wavelux_gpu::projector`, "Ties").
+/// Measured on lavapipe 2026-11-25: totals 2.4e-5, 7.2e-5, 1.8e-6 and worst faces
+/// 3.1e-2, 2.3e-2, 4.0e-3 at 8³, 16³, 32³ (with f32 tie decisions 2.4e-4, 4.9e-4,
+/// 3.5e-4 and 3.9e-2, 5.5e-2, 5.2e-2; with the lowest-axis-first rule worst faces of
+/// 0.17, 0.16, 0.09). Grids of unit cells agree to the contract
+/// (`unit_cell_grids_agree_to_the_contract_whatever_the_ties`). A wrong kernel is off
+/// by O(1).
+const TIE_TOTAL: f64 = 5e-4;
 const TIE_FACE: f64 = 0.1;
 
 struct Scene {
@@ -208,10 +211,12 @@ fn conformance_suite_at_f32_tolerance() -> anyhow::Result<()> {
                 if c.ok { "ok" } else { "FAIL" }
             );
         }
-        // `agrees-with-cpu` (max-norm 1e-5) is not met: its scene has opaque cells and
-        // per-face emission, where rays through cell edges make the CPU's own answer
-        // depend on its f64 tie rule (see `tie_sensitive_grids_...`); it is printed
-        // above. Every other check holds at the f32 tolerance.
+        // `agrees-with-cpu` (max-norm 1e-5) is not met: its scene has coarse cells,
+        // opaque cells and per-face emission, where a ray through an edge between the
+        // neighbours of a coarse cell's face enters one of them by rounding, in f32
+        // here and in f64 on the CPU (module docs, "Ties"; measured 1.5e-2 of the
+        // largest face). It is printed above; every other check holds at the f32
+        // tolerance.
         assert!(
             checks
                 .iter()
@@ -275,6 +280,58 @@ fn tie_free_random_grids_agree_with_the_cpu_projector() -> anyhow::Result<()> {
                 w <= 1e-9,
                 "{side}³: CPU not rotation invariant without ties: {w:e}"
             );
+        }
+    }
+    Ok(())
+}
+
+/// The scene with every coarse leaf split into unit voxels of the same medium and
+/// emission (opaque cells and per-face emission kept).
+fn unit_cells(s: &Scene) -> Scene {
+    let mut u = Scene {
+        side: s.side,
+        voxel: s.voxel,
+        cells: Vec::new(),
+        map: vec![0; s.map.len()],
+        coefficients: Vec::new(),
+        power: Vec::new(),
+    };
+    for (c, e) in s.cells.iter().zip(&s.coefficients) {
+        for z in 0..c.size {
+            for y in 0..c.size {
+                for x in 0..c.size {
+                    let o = [c.origin[0] + x, c.origin[1] + y, c.origin[2] + z];
+                    u.push(o, 1, c.extinction, *e);
+                }
+            }
+        }
+    }
+    u
+}
+
+/// On grids of unit cells every crossing is a box's own face, so which planes a ray
+/// meets first and which at once is decided on the CPU's f64 distances on both
+/// sides: with opaque cells and per-face emission (rays through edges and corners
+/// everywhere) the GPU agrees with the CPU to the contract.
+#[test]
+fn unit_cell_grids_agree_to_the_contract_whatever_the_ties() -> anyhow::Result<()> {
+    let cpu = CpuProjector::new(Projection::Exact, AntiAlias::OFF);
+    for gpu in common::gpus("projector unit-cell grids") {
+        let p = GpuProjector::new(gpu);
+        for (side, seed, step) in [(8, 1, 1), (16, 2, 37)] {
+            let s = unit_cells(&random_scene(side, seed));
+            let rec = receivers(&s, step);
+            for collision in [Collision::Exact, Collision::Plain] {
+                let g = gather(&p, &s, collision, &rec)?;
+                let c = gather(&cpu, &s, collision, &rec)?;
+                let w = worst_relative(&g, &c);
+                eprintln!(
+                    "  {side}³ unit cells, {} receivers, {collision:?}: worst relative face \
+                     error {w:.3e}",
+                    rec.len()
+                );
+                assert!(w <= CONTRACT, "{side}³ {collision:?}: {w:e}");
+            }
         }
     }
     Ok(())

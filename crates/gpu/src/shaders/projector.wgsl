@@ -32,9 +32,14 @@ struct Pixel {
     solid_angle: f32,
     // Entry faces of the three axes, 8 bits each.
     entry: u32,
+    // The CPU's f64 |1/dir| per axis: high and low words of its bits.
+    ih0: u32,
+    ih1: u32,
+    ih2: u32,
+    il0: u32,
+    il1: u32,
+    il2: u32,
     q0: u32,
-    q1: u32,
-    q2: u32,
 }
 
 struct Job {
@@ -93,6 +98,61 @@ struct Ray {
     inside: u32,
     ilo: vec3<i32>,
     isize: i32,
+    // The f64 |1/d| per axis (bits: high, low words), for `crossing_key`.
+    ih: vec3<u32>,
+    il: vec3<u32>,
+}
+
+// The CPU's crossing distance |b − o|·|1/d| rounded to f64 (round to nearest even), as
+// an order-preserving key (exponent, significand bits 52..32, bits 31..0). `h2` is
+// 2|b − o|, an integer below 2¹³ (ray origins are multiples of ½ voxel, grids at most
+// 1024 voxels); (ih, il) are the bits of the f64 |1/d|. The product of h2 and the
+// 53-bit significand is formed exactly in 16-bit limbs (below 2⁶⁶), then rounded to
+// 53 bits; the common factor ½ and the exponent bias do not change the order.
+fn crossing_key(h2: u32, ih: u32, il: u32) -> vec3<u32> {
+    let e = (ih >> 20u) & 0x7FFu;
+    let mh = (ih & 0xFFFFFu) | 0x100000u;
+    let p0 = h2 * (il & 0xFFFFu);
+    let p1 = h2 * (il >> 16u) + (p0 >> 16u);
+    let p2 = h2 * (mh & 0xFFFFu) + (p1 >> 16u);
+    let p3 = h2 * (mh >> 16u) + (p2 >> 16u);
+    let lo = (p0 & 0xFFFFu) | (p1 << 16u);
+    let mid = (p2 & 0xFFFFu) | (p3 << 16u);
+    let top = p3 >> 16u;
+    // Bits of the product (at least 53: h2 ≥ 1, the significand ≥ 2⁵²).
+    var nb = 64u - countLeadingZeros(mid);
+    if (top > 0u) {
+        nb = 96u - countLeadingZeros(top);
+    }
+    var s = nb - 53u;
+    if (s == 0u) {
+        return vec3<u32>(e, mid, lo);
+    }
+    var qlo = (lo >> s) | (mid << (32u - s));
+    var qhi = (mid >> s) | (top << (32u - s));
+    let rem = lo & ((1u << s) - 1u);
+    let half = 1u << (s - 1u);
+    if (rem > half || (rem == half && (qlo & 1u) == 1u)) {
+        qlo = qlo + 1u;
+        if (qlo == 0u) {
+            qhi = qhi + 1u;
+        }
+        if (qhi == 0x200000u) {
+            qhi = 0x100000u;
+            s = s + 1u;
+        }
+    }
+    return vec3<u32>(e + s, qhi, qlo);
+}
+
+fn key_less(a: vec3<u32>, b: vec3<u32>) -> bool {
+    if (a.x != b.x) {
+        return a.x < b.x;
+    }
+    if (a.y != b.y) {
+        return a.y < b.y;
+    }
+    return a.z < b.z;
 }
 
 // The voxel coordinate of x for a ray moving with component d: a position on a voxel
@@ -116,8 +176,17 @@ fn unit_entry(a: i32) -> vec3<f32> {
     return e;
 }
 
+fn inv_hi(px: Pixel) -> vec3<u32> {
+    return vec3<u32>(px.ih0, px.ih1, px.ih2);
+}
+
+fn inv_lo(px: Pixel) -> vec3<u32> {
+    return vec3<u32>(px.il0, px.il1, px.il2);
+}
+
 // The ray from the centre of face `face` of the box [lo, lo + size) along d.
-fn face_ray(lo: vec3<i32>, size: i32, face: u32, d: vec3<f32>) -> Ray {
+fn face_ray(lo: vec3<i32>, size: i32, face: u32, px: Pixel) -> Ray {
+    let d = px.dir;
     let axis = i32(face / 2u);
     let negative = (face % 2u) == 1u;
     var o = vec3<f32>(lo) + 0.5 * f32(size);
@@ -132,13 +201,14 @@ fn face_ray(lo: vec3<i32>, size: i32, face: u32, d: vec3<f32>) -> Ray {
     } else {
         idx[axis] = lo[axis] + size;
     }
-    return Ray(o, d, 0.0, idx, unit_entry(axis), 0u, lo, size);
+    return Ray(o, d, 0.0, idx, unit_entry(axis), 0u, lo, size, inv_hi(px), inv_lo(px));
 }
 
 // The ray from the centre of the box along d, started inside it.
-fn centre_ray(lo: vec3<i32>, size: i32, d: vec3<f32>) -> Ray {
+fn centre_ray(lo: vec3<i32>, size: i32, px: Pixel) -> Ray {
+    let d = px.dir;
     let o = vec3<f32>(lo) + 0.5 * f32(size);
-    return Ray(o, d, 0.0, lo, unit_entry(0), 1u, lo, size);
+    return Ray(o, d, 0.0, lo, unit_entry(0), 1u, lo, size, inv_hi(px), inv_lo(px));
 }
 
 // The active cell containing voxel idx, or -1 outside the grid.
@@ -210,15 +280,32 @@ fn trace(ray: Ray) -> vec3<f32> {
             ext = cell.ext;
         }
         let hi = lo + vec3<i32>(size);
+        // Crossing distances: in f32 for the chord, and which planes the ray meets
+        // first (and which at once) decided on the CPU's f64 values.
         var ta = vec3<f32>(BIG);
+        var keys: array<vec3<u32>, 3>;
+        var first = -1;
+        for (var a = 0; a < 3; a = a + 1) {
+            if (d[a] != 0.0) {
+                var b = lo[a];
+                if (d[a] > 0.0) {
+                    b = hi[a];
+                }
+                ta[a] = (f32(b) - o[a]) * inv[a];
+                let h2 = u32(abs(2 * b - i32(round(2.0 * o[a]))));
+                keys[a] = crossing_key(h2, ray.ih[a], ray.il[a]);
+                if (first < 0 || key_less(keys[a], keys[first])) {
+                    first = a;
+                }
+            }
+        }
+        // The chord ends at the f32 distance of the nearest plane (the least of the
+        // tied ones, so that it does not depend on how the axes are labelled).
         var te = BIG;
         for (var a = 0; a < 3; a = a + 1) {
-            if (d[a] > 0.0) {
-                ta[a] = (f32(hi[a]) - o[a]) * inv[a];
-            } else if (d[a] < 0.0) {
-                ta[a] = (f32(lo[a]) - o[a]) * inv[a];
+            if (first >= 0 && d[a] != 0.0 && all(keys[a] == keys[first])) {
+                te = min(te, ta[a]);
             }
-            te = min(te, ta[a]);
         }
         if (contributes) {
             let len = max(te - t, 0.0);
@@ -252,7 +339,7 @@ fn trace(ray: Ray) -> vec3<f32> {
         var n_tied = 0;
         for (var a = 0; a < 3; a = a + 1) {
             base[a] = clamp(voxel_coordinate(o[a] + te * d[a], d[a]), lo[a], hi[a] - 1);
-            if (ta[a] == te) {
+            if (d[a] != 0.0 && all(keys[a] == keys[first])) {
                 if (d[a] > 0.0) {
                     stepped[a] = hi[a];
                     base[a] = hi[a] - 1;
@@ -373,11 +460,11 @@ fn gather_pixel(job: Job, p: u32) {
         for (var k = 0; k < 3; k = k + 1) {
             rad[k] = vec3<f32>(0.0);
             if (w[k] > 0.0) {
-                rad[k] = trace(face_ray(job.lo, job.size, ent[k], px.dir));
+                rad[k] = trace(face_ray(job.lo, job.size, ent[k], px));
             }
         }
     } else {
-        let r = trace(centre_ray(job.lo, job.size, px.dir));
+        let r = trace(centre_ray(job.lo, job.size, px));
         rad[0] = r;
         rad[1] = r;
         rad[2] = r;
@@ -401,7 +488,7 @@ fn escape_pixel(job: Job, p: u32) {
     if (c <= 0.0) {
         return;
     }
-    let r = trace(face_ray(job.lo, 1, face, px.dir));
+    let r = trace(face_ray(job.lo, 1, face, px));
     for (var ch = 0u; ch < 3u; ch = ch + 1u) {
         add(ch, (px.solid_angle * c) * r[ch]);
     }
