@@ -324,211 +324,19 @@ pub fn architecture(bays: usize, storeys: usize) -> Result<Scene, SceneError> {
         )));
     }
     let mut s = Scene::new(format!("architecture-{bays}x{storeys}"));
-    let wall = s.add_material(Material::lambertian(
-        "wall",
-        Rgb::new(0.72, 0.70, 0.66),
-        Rgb::BLACK,
-    ));
-    let slab = s.add_material(Material::lambertian(
-        "slab",
-        Rgb::new(0.50, 0.42, 0.34),
-        Rgb::BLACK,
-    ));
-    let part = s.add_material(Material::lambertian(
-        "partition",
-        Rgb::grey(0.6),
-        Rgb::BLACK,
-    ));
-    let light = s.add_material(Material::lambertian(
-        "light",
-        Rgb::grey(0.0),
-        Rgb::grey(200.0),
-    ));
-    let (w, h, d) = (ARCH_BAY, ARCH_STOREY, ARCH_DEPTH);
-    let len = w * bays as f64;
+    let m = HallMaterials::add(&mut s);
     for st in 0..storeys {
-        let z0 = h * st as f64;
         for b in 0..bays {
-            let x0 = w * b as f64;
-            let tag = format!("s{st}-b{b}");
-            // Front wall: origin at the bay's right end, u = −x, v = +z → normal +y.
-            let front = PlaneFrame {
-                origin: DVec3::new(x0 + w, 0.0, z0),
-                u: -DVec3::X,
-                v: DVec3::Z,
-            };
-            let back = PlaneFrame {
-                origin: DVec3::new(x0, d, z0),
-                u: DVec3::X,
-                v: DVec3::Z,
-            };
-            for (side, frame, door) in [("front", front, st == 0), ("back", back, false)] {
-                let (outer, holes, windows) = bay_wall(door);
-                push(
-                    &mut s,
-                    format!("{tag}-{side}"),
-                    Shape::Polygon(PolygonShape {
-                        frame,
-                        outer,
-                        holes,
-                    }),
-                    wall,
-                    Sidedness::OneSided,
-                );
-                for win in windows {
-                    for (k, r) in reveals(&frame, win, ARCH_REVEAL).into_iter().enumerate() {
-                        push(
-                            &mut s,
-                            format!("{tag}-{side}-reveal{k}"),
-                            r,
-                            wall,
-                            Sidedness::OneSided,
-                        );
-                    }
-                }
-            }
-            // Floor slab at z0.
-            let slab_frame = PlaneFrame {
-                origin: DVec3::new(x0, 0.0, z0),
-                u: DVec3::X,
-                v: DVec3::Y,
-            };
-            let holes = if b % 2 == 1 {
-                vec![Loop::circle(DVec2::new(0.5 * w, 0.5 * d), 0.8)]
-            } else {
-                Vec::new()
-            };
-            let floor = if holes.is_empty() {
-                Shape::parallelogram(slab_frame.origin, DVec3::X * w, DVec3::Y * d)
-            } else {
-                Shape::Polygon(PolygonShape {
-                    frame: slab_frame,
-                    outer: rect(DVec2::ZERO, DVec2::new(w, d)),
-                    holes,
-                })
-            };
-            let sides = if st == 0 {
-                Sidedness::OneSided
-            } else {
-                Sidedness::TwoSided { back: slab }
-            };
-            push(&mut s, format!("{tag}-floor"), floor, slab, sides);
-            if b >= 1 {
-                let frame = PlaneFrame {
-                    origin: DVec3::new(x0, 0.0, z0),
-                    u: DVec3::Y,
-                    v: DVec3::Z,
-                };
-                let outer = Loop {
-                    edges: vec![
-                        LoopEdge::Segment {
-                            start: DVec2::new(0.0, 0.0),
-                        },
-                        LoopEdge::Segment {
-                            start: DVec2::new(2.8, 0.0),
-                        },
-                        LoopEdge::Arc {
-                            start: DVec2::new(2.8, 1.8),
-                            center: DVec2::new(4.0, 1.8),
-                            ccw: false,
-                        },
-                        LoopEdge::Segment {
-                            start: DVec2::new(5.2, 1.8),
-                        },
-                        LoopEdge::Segment {
-                            start: DVec2::new(5.2, 0.0),
-                        },
-                        LoopEdge::Segment {
-                            start: DVec2::new(d, 0.0),
-                        },
-                        LoopEdge::Segment {
-                            start: DVec2::new(d, h),
-                        },
-                        LoopEdge::Segment {
-                            start: DVec2::new(0.0, h),
-                        },
-                    ],
-                };
-                push(
-                    &mut s,
-                    format!("{tag}-partition"),
-                    Shape::Polygon(PolygonShape {
-                        frame,
-                        outer,
-                        holes: Vec::new(),
-                    }),
-                    part,
-                    Sidedness::TwoSided { back: part },
-                );
-            }
-            if b % 2 == 0 {
-                let c = DVec3::new(x0 + 0.5 * w, 2.0, z0 + h - 0.05);
-                // e1 × e2 = Y × X = −z: facing down.
-                push(
-                    &mut s,
-                    format!("{tag}-light"),
-                    Shape::parallelogram(
-                        c - DVec3::new(0.3, 0.3, 0.0),
-                        DVec3::Y * 0.6,
-                        DVec3::X * 0.6,
-                    ),
-                    light,
-                    Sidedness::OneSided,
-                );
-            }
+            hall_bay(&mut s, &m, st, b);
         }
-        // End walls with an oculus.
-        let ends = [
-            (
-                "end0",
-                PlaneFrame {
-                    origin: DVec3::new(0.0, 0.0, z0),
-                    u: DVec3::Y,
-                    v: DVec3::Z,
-                },
-            ),
-            (
-                "end1",
-                PlaneFrame {
-                    origin: DVec3::new(len, d, z0),
-                    u: -DVec3::Y,
-                    v: DVec3::Z,
-                },
-            ),
-        ];
-        for (name, frame) in ends {
-            push(
-                &mut s,
-                format!("s{st}-{name}"),
-                Shape::Polygon(PolygonShape {
-                    frame,
-                    outer: rect(DVec2::ZERO, DVec2::new(d, h)),
-                    holes: vec![Loop::circle(DVec2::new(0.5 * d, 0.55 * h), 0.4)],
-                }),
-                wall,
-                Sidedness::OneSided,
-            );
-        }
+        hall_end_walls(&mut s, m.wall, st, bays);
     }
-    // Roof slabs facing down: e1 × e2 = Y × X = −z.
-    let top = h * storeys as f64;
-    for b in 0..bays {
-        push(
-            &mut s,
-            format!("roof-b{b}"),
-            Shape::parallelogram(
-                DVec3::new(w * b as f64, 0.0, top),
-                DVec3::Y * d,
-                DVec3::X * w,
-            ),
-            slab,
-            Sidedness::OneSided,
-        );
-    }
+    hall_roof(&mut s, m.slab, bays, storeys);
+    let (w, d) = (ARCH_BAY, ARCH_DEPTH);
     if let Some(cam) = Camera::look_at(
         "camera",
         DVec3::new(0.6, 0.6, 1.6),
-        DVec3::new(len.min(3.0 * w), 0.6 * d, 1.8),
+        DVec3::new((w * bays as f64).min(3.0 * w), 0.6 * d, 1.8),
         DVec3::Z,
         1.1,
         Some(1.5),
@@ -536,6 +344,207 @@ pub fn architecture(bays: usize, storeys: usize) -> Result<Scene, SceneError> {
         s.cameras.push(cam);
     }
     Ok(s)
+}
+
+/// The materials of [`architecture`]'s hall.
+struct HallMaterials {
+    wall: MaterialId,
+    slab: MaterialId,
+    partition: MaterialId,
+    light: MaterialId,
+}
+
+impl HallMaterials {
+    fn add(s: &mut Scene) -> Self {
+        let mut lambertian =
+            |name: &str, rho: Rgb, e: Rgb| s.add_material(Material::lambertian(name, rho, e));
+        Self {
+            wall: lambertian("wall", Rgb::new(0.72, 0.70, 0.66), Rgb::BLACK),
+            slab: lambertian("slab", Rgb::new(0.50, 0.42, 0.34), Rgb::BLACK),
+            partition: lambertian("partition", Rgb::grey(0.6), Rgb::BLACK),
+            light: lambertian("light", Rgb::grey(0.0), Rgb::grey(200.0)),
+        }
+    }
+}
+
+/// Bay `b` of storey `st` of [`architecture`]: its front and back walls with their
+/// window reveals, its floor slab, its partition (from the second bay on) and, in even
+/// bays, its ceiling light.
+fn hall_bay(s: &mut Scene, m: &HallMaterials, st: usize, b: usize) {
+    let (w, h, d) = (ARCH_BAY, ARCH_STOREY, ARCH_DEPTH);
+    let (x0, z0) = (w * b as f64, h * st as f64);
+    let tag = format!("s{st}-b{b}");
+    // Front wall: origin at the bay's right end, u = −x, v = +z → normal +y.
+    let front = PlaneFrame {
+        origin: DVec3::new(x0 + w, 0.0, z0),
+        u: -DVec3::X,
+        v: DVec3::Z,
+    };
+    let back = PlaneFrame {
+        origin: DVec3::new(x0, d, z0),
+        u: DVec3::X,
+        v: DVec3::Z,
+    };
+    for (side, frame, door) in [("front", front, st == 0), ("back", back, false)] {
+        let (outer, holes, windows) = bay_wall(door);
+        push(
+            s,
+            format!("{tag}-{side}"),
+            Shape::Polygon(PolygonShape {
+                frame,
+                outer,
+                holes,
+            }),
+            m.wall,
+            Sidedness::OneSided,
+        );
+        for win in windows {
+            for (k, r) in reveals(&frame, win, ARCH_REVEAL).into_iter().enumerate() {
+                push(
+                    s,
+                    format!("{tag}-{side}-reveal{k}"),
+                    r,
+                    m.wall,
+                    Sidedness::OneSided,
+                );
+            }
+        }
+    }
+    // Floor slab at z0, with a light well in odd bays.
+    let slab_frame = PlaneFrame {
+        origin: DVec3::new(x0, 0.0, z0),
+        u: DVec3::X,
+        v: DVec3::Y,
+    };
+    let floor = if b % 2 == 1 {
+        Shape::Polygon(PolygonShape {
+            frame: slab_frame,
+            outer: rect(DVec2::ZERO, DVec2::new(w, d)),
+            holes: vec![Loop::circle(DVec2::new(0.5 * w, 0.5 * d), 0.8)],
+        })
+    } else {
+        Shape::parallelogram(slab_frame.origin, DVec3::X * w, DVec3::Y * d)
+    };
+    let sides = if st == 0 {
+        Sidedness::OneSided
+    } else {
+        Sidedness::TwoSided { back: m.slab }
+    };
+    push(s, format!("{tag}-floor"), floor, m.slab, sides);
+    if b >= 1 {
+        push(
+            s,
+            format!("{tag}-partition"),
+            Shape::Polygon(PolygonShape {
+                frame: PlaneFrame {
+                    origin: DVec3::new(x0, 0.0, z0),
+                    u: DVec3::Y,
+                    v: DVec3::Z,
+                },
+                outer: partition_outline(),
+                holes: Vec::new(),
+            }),
+            m.partition,
+            Sidedness::TwoSided { back: m.partition },
+        );
+    }
+    if b.is_multiple_of(2) {
+        let c = DVec3::new(x0 + 0.5 * w, 2.0, z0 + h - 0.05);
+        // e1 × e2 = Y × X = −z: facing down.
+        push(
+            s,
+            format!("{tag}-light"),
+            Shape::parallelogram(
+                c - DVec3::new(0.3, 0.3, 0.0),
+                DVec3::Y * 0.6,
+                DVec3::X * 0.6,
+            ),
+            m.light,
+            Sidedness::OneSided,
+        );
+    }
+}
+
+/// The outline of a transverse partition in its plane (`u` across the hall, `v` up):
+/// the bay's `[0, 8] × [0, 3.5]` section with an arched opening `u ∈ [2.8, 5.2]`,
+/// springing 1.8, cut into the outer loop.
+fn partition_outline() -> Loop {
+    let (h, d) = (ARCH_STOREY, ARCH_DEPTH);
+    let seg = |x: f64, y: f64| LoopEdge::Segment {
+        start: DVec2::new(x, y),
+    };
+    Loop {
+        edges: vec![
+            seg(0.0, 0.0),
+            seg(2.8, 0.0),
+            LoopEdge::Arc {
+                start: DVec2::new(2.8, 1.8),
+                center: DVec2::new(4.0, 1.8),
+                ccw: false,
+            },
+            seg(5.2, 1.8),
+            seg(5.2, 0.0),
+            seg(d, 0.0),
+            seg(d, h),
+            seg(0.0, h),
+        ],
+    }
+}
+
+/// The two end walls of storey `st` of a hall of `bays` bays, each with an oculus.
+fn hall_end_walls(s: &mut Scene, wall: MaterialId, st: usize, bays: usize) {
+    let (h, d) = (ARCH_STOREY, ARCH_DEPTH);
+    let z0 = h * st as f64;
+    let len = ARCH_BAY * bays as f64;
+    let ends = [
+        (
+            "end0",
+            PlaneFrame {
+                origin: DVec3::new(0.0, 0.0, z0),
+                u: DVec3::Y,
+                v: DVec3::Z,
+            },
+        ),
+        (
+            "end1",
+            PlaneFrame {
+                origin: DVec3::new(len, d, z0),
+                u: -DVec3::Y,
+                v: DVec3::Z,
+            },
+        ),
+    ];
+    for (name, frame) in ends {
+        push(
+            s,
+            format!("s{st}-{name}"),
+            Shape::Polygon(PolygonShape {
+                frame,
+                outer: rect(DVec2::ZERO, DVec2::new(d, h)),
+                holes: vec![Loop::circle(DVec2::new(0.5 * d, 0.55 * h), 0.4)],
+            }),
+            wall,
+            Sidedness::OneSided,
+        );
+    }
+}
+
+/// The roof slabs over a hall of `bays × storeys`, facing down (e1 × e2 = Y × X = −z).
+fn hall_roof(s: &mut Scene, slab: MaterialId, bays: usize, storeys: usize) {
+    let top = ARCH_STOREY * storeys as f64;
+    for b in 0..bays {
+        push(
+            s,
+            format!("roof-b{b}"),
+            Shape::parallelogram(
+                DVec3::new(ARCH_BAY * b as f64, 0.0, top),
+                DVec3::Y * ARCH_DEPTH,
+                DVec3::X * ARCH_BAY,
+            ),
+            slab,
+            Sidedness::OneSided,
+        );
+    }
 }
 
 /// Benches per bay and storey of [`opera_hall`].
@@ -762,22 +771,200 @@ fn handle_geometry() -> AnalyticSurface {
 /// source" as a small area emitter). Teapot reflectance 0.75 (white).
 pub fn quadric_teapot() -> Result<Scene, SceneError> {
     let mut s = Scene::new("quadric-teapot");
-    let white = s.add_material(Material::lambertian("teapot", Rgb::grey(0.75), Rgb::BLACK));
-    let black = s.add_material(Material::lambertian("inside", Rgb::BLACK, Rgb::BLACK));
-    let red = s.add_material(Material::lambertian(
-        "plate",
-        Rgb::new(0.75, 0.12, 0.10),
-        Rgb::BLACK,
-    ));
-    let light = s.add_material(Material::lambertian("light", Rgb::BLACK, Rgb::grey(1000.0)));
-    let one = Sidedness::OneSided;
-    let two = Sidedness::TwoSided { back: white };
-    let body_c = DVec3::new(0.0, 0.0, BODY_Z);
-    let body_f = spheroid_fn(body_c, BODY_A, BODY_C);
-    let n = TRIM_SAMPLES;
-    // Spout: trim to the outside of the body along each generator (v direction).
+    let m = TeapotMaterials::add(&mut s);
+    let (one, two) = (Sidedness::OneSided, Sidedness::TwoSided { back: m.white });
+    let body_f = spheroid_fn(DVec3::new(0.0, 0.0, BODY_Z), BODY_A, BODY_C);
     let (spout, tip, d) = spout_geometry();
+    let (spout_cut, spout_loop) = spout_trim(&body_f, &spout)?;
+    let handle = handle_geometry();
+    let (handle_ends, handle_loop) = handle_trim(&body_f, &handle)?;
+    // The junction curves on the body, in 3D.
     let sp = param_of(&spout)?;
+    let hp = param_of(&handle)?;
+    let n = TRIM_SAMPLES;
+    let mut curves: Vec<Vec<DVec3>> =
+        vec![spout_cut[..n].iter().map(|uv| sp.position(*uv)).collect()];
+    for end in &handle_ends {
+        curves.push(end[..n].iter().map(|uv| hp.position(*uv)).collect());
+    }
+    for (i, (surface, trim)) in body_bands(&curves)?.into_iter().enumerate() {
+        push(
+            &mut s,
+            format!("body{i}"),
+            patch(surface, trim),
+            m.white,
+            one,
+        );
+    }
+    let trimmed = |outline: Vec<DVec2>| {
+        Some(Region {
+            outer: Loop::polygon(&outline),
+            holes: Vec::new(),
+        })
+    };
+    let lv = TeapotLevels::new();
+    let pieces = [
+        (
+            "foot",
+            band(DVec3::ZERO, 0.05, 0.68, 0.25, 0.6),
+            None,
+            m.white,
+            two,
+        ),
+        (
+            "foot-band",
+            band(DVec3::ZERO, 0.0, 0.68, 0.05, 0.68),
+            None,
+            m.white,
+            two,
+        ),
+        ("spout", spout, trimmed(spout_loop), m.white, two),
+        // Flare: torus centred at the tip, axis d, R = 0.2, r = 0.1; φ = π is the
+        // waist (radius 0.1 at the tip), φ = π − 0.795 the mouth (radius 0.13, 0.0714
+        // further).
+        (
+            "spout-flare",
+            AnalyticSurface::Torus {
+                placement: placement(tip, d, DVec3::Y),
+                major: 0.2,
+                minor: 0.1,
+                azimuth: (0.0, TAU),
+                tube: (PI - lv.flare_phi, PI),
+            },
+            None,
+            m.black,
+            two,
+        ),
+        ("handle", handle, trimmed(handle_loop), m.white, one),
+        (
+            "collar",
+            band(DVec3::ZERO, lv.z_open, 0.5, 1.54, 0.5),
+            None,
+            m.white,
+            two,
+        ),
+        (
+            "lid",
+            AnalyticSurface::Spheroid {
+                placement: placement(DVec3::new(0.0, 0.0, 1.54), DVec3::Z, DVec3::X),
+                equatorial: 0.45,
+                polar: 0.3,
+                azimuth: (0.0, TAU),
+                latitude: (0.0, lv.lid_top),
+            },
+            None,
+            m.white,
+            one,
+        ),
+        // Neck: R = 0.16, r = 0.1, radius 0.08 where cos φ = −0.8 (φ = π ± 0.6435,
+        // height ∓0.06): centre 0.06 above the lid top.
+        (
+            "knob-neck",
+            AnalyticSurface::Torus {
+                placement: placement(DVec3::new(0.0, 0.0, lv.neck_c), DVec3::Z, DVec3::X),
+                major: 0.16,
+                minor: 0.1,
+                azimuth: (0.0, TAU),
+                tube: (PI - lv.neck_phi, PI + lv.neck_phi),
+            },
+            None,
+            m.black,
+            two,
+        ),
+        (
+            "knob",
+            AnalyticSurface::Sphere {
+                placement: placement(DVec3::new(0.0, 0.0, lv.knob_c), DVec3::Z, DVec3::X),
+                radius: 0.11,
+                azimuth: (0.0, TAU),
+                latitude: (-(0.08f64 / 0.11).acos(), FRAC_PI_2),
+            },
+            None,
+            m.white,
+            one,
+        ),
+    ];
+    for (name, surface, trim, material, sides) in pieces {
+        push(&mut s, name.into(), patch(surface, trim), material, sides);
+    }
+    teapot_polygons(&mut s, &m, &lv, tip + d * (0.1 * lv.flare_phi.sin()), d);
+    teapot_surroundings(&mut s, &m);
+    Ok(s)
+}
+
+/// The materials of [`quadric_teapot`].
+struct TeapotMaterials {
+    white: MaterialId,
+    black: MaterialId,
+    red: MaterialId,
+    light: MaterialId,
+}
+
+impl TeapotMaterials {
+    fn add(s: &mut Scene) -> Self {
+        let mut lambertian =
+            |name: &str, rho: Rgb, e: Rgb| s.add_material(Material::lambertian(name, rho, e));
+        Self {
+            white: lambertian("teapot", Rgb::grey(0.75), Rgb::BLACK),
+            black: lambertian("inside", Rgb::BLACK, Rgb::BLACK),
+            red: lambertian("plate", Rgb::new(0.75, 0.12, 0.10), Rgb::BLACK),
+            light: lambertian("light", Rgb::BLACK, Rgb::grey(1000.0)),
+        }
+    }
+}
+
+/// Heights and angles of the teapot's top pieces (collar, lid, knob) and of the
+/// spout's flare, derived from the constants in [`quadric_teapot`]'s description.
+struct TeapotLevels {
+    /// Height of the body's opening (m).
+    z_open: f64,
+    /// Parametric latitude where the lid meets the lid-top ring (radius 0.25).
+    lid_top: f64,
+    /// Height of the lid's top ring (m).
+    z_lid_top: f64,
+    /// Tube half-angle of the knob's neck about its waist.
+    neck_phi: f64,
+    /// Height of the neck torus' centre (m).
+    neck_c: f64,
+    /// Height of the neck's top (m).
+    neck_top: f64,
+    /// Height of the knob sphere's centre (m).
+    knob_c: f64,
+    /// Tube angle of the spout flare's mouth below π.
+    flare_phi: f64,
+}
+
+impl TeapotLevels {
+    fn new() -> Self {
+        let z_open = BODY_Z + BODY_C * BODY_LAT_TOP.sin();
+        let lid_top = (0.25f64 / 0.45).acos();
+        let z_lid_top = 1.54 + 0.3 * lid_top.sin();
+        let neck_phi = (0.8f64).acos();
+        let neck_c = z_lid_top + 0.06;
+        let neck_top = neck_c + 0.06;
+        let knob_c = neck_top + (0.11f64 * 0.11 - 0.08 * 0.08).sqrt();
+        Self {
+            z_open,
+            lid_top,
+            z_lid_top,
+            neck_phi,
+            neck_c,
+            neck_top,
+            knob_c,
+            flare_phi: (0.7f64).acos(),
+        }
+    }
+}
+
+/// The spout's trim against the body `body_f` (negative inside): for each generator
+/// (`u` of the cone's square) the `v` where it leaves the body, and the outline of
+/// the part outside the body in the cone's square.
+fn spout_trim(
+    body_f: &impl Fn(DVec3) -> f64,
+    spout: &AnalyticSurface,
+) -> Result<(Vec<DVec2>, Vec<DVec2>), SceneError> {
+    let sp = param_of(spout)?;
+    let n = TRIM_SAMPLES;
     let outside_at_one = body_f(sp.position(DVec2::new(0.0, 1.0))) > 0.0;
     let mut cut = Vec::with_capacity(n + 1);
     for k in 0..=n {
@@ -788,19 +975,25 @@ pub fn quadric_teapot() -> Result<Scene, SceneError> {
         }
         cut.push(DVec2::new(u, bisect(g, 0.0, 1.0)));
     }
-    let mut spout_loop = cut.clone();
+    let mut outline = cut.clone();
     if outside_at_one {
-        spout_loop.extend([DVec2::ONE, DVec2::new(0.0, 1.0)]);
+        outline.extend([DVec2::ONE, DVec2::new(0.0, 1.0)]);
     } else {
-        spout_loop.reverse();
-        spout_loop.extend([DVec2::ZERO, DVec2::new(1.0, 0.0)]);
+        outline.reverse();
+        outline.extend([DVec2::ZERO, DVec2::new(1.0, 0.0)]);
     }
-    let mut curves: Vec<Vec<DVec3>> = vec![cut[..n].iter().map(|uv| sp.position(*uv)).collect()];
+    Ok((cut, outline))
+}
 
-    // Handle: both ends inside the body; for each tube angle find where the tube
-    // leaves the body on either side of the middle (u = 1/2, outside).
-    let handle = handle_geometry();
-    let hp = param_of(&handle)?;
+/// The handle's trim against the body: both ends are inside, so for each tube angle
+/// (`v`) the tube leaves the body on either side of its middle (`u = 1/2`, outside).
+/// Returns the two end curves (low and high `u`) and the outline of the part outside.
+fn handle_trim(
+    body_f: &impl Fn(DVec3) -> f64,
+    handle: &AnalyticSurface,
+) -> Result<([Vec<DVec2>; 2], Vec<DVec2>), SceneError> {
+    let hp = param_of(handle)?;
+    let n = TRIM_SAMPLES;
     let mut lo = Vec::with_capacity(n + 1);
     let mut hi = Vec::with_capacity(n + 1);
     for k in 0..=n {
@@ -812,14 +1005,15 @@ pub fn quadric_teapot() -> Result<Scene, SceneError> {
         lo.push(DVec2::new(bisect(g, 0.0, 0.5), v));
         hi.push(DVec2::new(bisect(g, 0.5, 1.0), v));
     }
-    let mut handle_loop = lo.clone();
-    handle_loop.extend(hi.iter().rev());
-    for curve in [&lo, &hi] {
-        curves.push(curve[..n].iter().map(|uv| hp.position(*uv)).collect());
-    }
+    let mut outline = lo.clone();
+    outline.extend(hi.iter().rev());
+    Ok(([lo, hi], outline))
+}
 
-    // Band boundaries: the body is cut between the junction curves, so that every
-    // curve lies inside one band and the bands above and below the cut both hold one.
+/// The body as three spheroid bands with the junction `curves` as holes: the body is
+/// cut between the junction curves (at the widest latitude gap), so that every curve
+/// lies inside one band and the bands above and below the cut both hold one.
+fn body_bands(curves: &[Vec<DVec3>]) -> Result<Vec<(AnalyticSurface, Option<Region>)>, SceneError> {
     let lat_of = |p: &DVec3| ((p.z - BODY_Z) / BODY_C).clamp(-1.0, 1.0).asin();
     let ranges: Vec<(f64, f64)> = curves
         .iter()
@@ -858,7 +1052,7 @@ pub fn quadric_teapot() -> Result<Scene, SceneError> {
     // u = 3/4, both away from the seam.
     let bands: Vec<AnalyticSurface> = (0..3)
         .map(|i| AnalyticSurface::Spheroid {
-            placement: placement(body_c, DVec3::Z, DVec3::X),
+            placement: placement(DVec3::new(0.0, 0.0, BODY_Z), DVec3::Z, DVec3::X),
             equatorial: BODY_A,
             polar: BODY_C,
             azimuth: (-FRAC_PI_2, 1.5 * PI),
@@ -867,192 +1061,32 @@ pub fn quadric_teapot() -> Result<Scene, SceneError> {
         .collect();
     let band_params = bands.iter().map(param_of).collect::<Result<Vec<_>, _>>()?;
     let mut band_holes: [Vec<Loop>; 3] = Default::default();
-    for c in &curves {
+    for c in curves {
         let lat = lat_of(&c[0]);
         let bi = (0..3)
             .find(|&i| lat >= lats[i] && lat <= lats[i + 1])
             .ok_or_else(|| bad("junction curve outside the body bands"))?;
         band_holes[bi].push(hole_on(band_params[bi].as_ref(), c)?);
     }
+    Ok(bands
+        .into_iter()
+        .zip(band_holes)
+        .map(|(surface, holes)| {
+            let trim = (!holes.is_empty()).then(|| Region {
+                outer: rect(DVec2::ZERO, DVec2::ONE),
+                holes,
+            });
+            (surface, trim)
+        })
+        .collect())
+}
 
-    for (i, (surface, holes)) in bands.into_iter().zip(band_holes).enumerate() {
-        let trim = (!holes.is_empty()).then(|| Region {
-            outer: rect(DVec2::ZERO, DVec2::ONE),
-            holes,
-        });
-        push(&mut s, format!("body{i}"), patch(surface, trim), white, one);
-    }
-    push(
-        &mut s,
-        "foot".into(),
-        patch(band(DVec3::ZERO, 0.05, 0.68, 0.25, 0.6), None),
-        white,
-        two,
-    );
-    push(
-        &mut s,
-        "foot-band".into(),
-        patch(band(DVec3::ZERO, 0.0, 0.68, 0.05, 0.68), None),
-        white,
-        two,
-    );
-    push(
-        &mut s,
-        "spout".into(),
-        patch(
-            spout,
-            Some(Region {
-                outer: Loop::polygon(&spout_loop),
-                holes: Vec::new(),
-            }),
-        ),
-        white,
-        two,
-    );
-    // Flare: torus centred at the tip, axis d, R = 0.2, r = 0.1; φ = π is the waist
-    // (radius 0.1 at the tip), φ = π − 0.795 the mouth (radius 0.13, 0.0714 further).
-    let flare_phi = (0.7f64).acos();
-    push(
-        &mut s,
-        "spout-flare".into(),
-        patch(
-            AnalyticSurface::Torus {
-                placement: placement(tip, d, DVec3::Y),
-                major: 0.2,
-                minor: 0.1,
-                azimuth: (0.0, TAU),
-                tube: (PI - flare_phi, PI),
-            },
-            None,
-        ),
-        black,
-        two,
-    );
-    push(
-        &mut s,
-        "handle".into(),
-        patch(
-            handle,
-            Some(Region {
-                outer: Loop::polygon(&handle_loop),
-                holes: Vec::new(),
-            }),
-        ),
-        white,
-        one,
-    );
-    let z_open = BODY_Z + BODY_C * BODY_LAT_TOP.sin();
-    push(
-        &mut s,
-        "collar".into(),
-        patch(band(DVec3::ZERO, z_open, 0.5, 1.54, 0.5), None),
-        white,
-        two,
-    );
-    let lid_top = (0.25f64 / 0.45).acos();
-    push(
-        &mut s,
-        "lid".into(),
-        patch(
-            AnalyticSurface::Spheroid {
-                placement: placement(DVec3::new(0.0, 0.0, 1.54), DVec3::Z, DVec3::X),
-                equatorial: 0.45,
-                polar: 0.3,
-                azimuth: (0.0, TAU),
-                latitude: (0.0, lid_top),
-            },
-            None,
-        ),
-        white,
-        one,
-    );
-    let z_lid_top = 1.54 + 0.3 * lid_top.sin();
-    // Neck: R = 0.16, r = 0.1, radius 0.08 where cos φ = −0.8 (φ = π ± 0.6435, height
-    // ∓0.06): centre 0.06 above the lid top.
-    let neck_phi = (0.8f64).acos();
-    let neck_c = z_lid_top + 0.06;
-    push(
-        &mut s,
-        "knob-neck".into(),
-        patch(
-            AnalyticSurface::Torus {
-                placement: placement(DVec3::new(0.0, 0.0, neck_c), DVec3::Z, DVec3::X),
-                major: 0.16,
-                minor: 0.1,
-                azimuth: (0.0, TAU),
-                tube: (PI - neck_phi, PI + neck_phi),
-            },
-            None,
-        ),
-        black,
-        two,
-    );
-    let neck_top = neck_c + 0.06;
-    let knob_c = neck_top + (0.11f64 * 0.11 - 0.08 * 0.08).sqrt();
-    push(
-        &mut s,
-        "knob".into(),
-        patch(
-            AnalyticSurface::Sphere {
-                placement: placement(DVec3::new(0.0, 0.0, knob_c), DVec3::Z, DVec3::X),
-                radius: 0.11,
-                azimuth: (0.0, TAU),
-                latitude: (-(0.08f64 / 0.11).acos(), FRAC_PI_2),
-            },
-            None,
-        ),
-        white,
-        one,
-    );
-    // The 7 complex polygons.
+/// The teapot's 7 complex polygons; `mouth` is the centre of the spout flare's mouth,
+/// `d` the spout's axis.
+fn teapot_polygons(s: &mut Scene, m: &TeapotMaterials, lv: &TeapotLevels, mouth: DVec3, d: DVec3) {
+    let (one, two) = (Sidedness::OneSided, Sidedness::TwoSided { back: m.white });
     let up = |z: f64| frame_facing(DVec3::new(0.0, 0.0, z), DVec3::Z, DVec3::X);
     let z_bottom = BODY_Z + BODY_C * BODY_LAT_BOTTOM.sin();
-    push(
-        &mut s,
-        "bottom".into(),
-        disk(
-            frame_facing(DVec3::new(0.0, 0.0, z_bottom), -DVec3::Z, DVec3::X),
-            0.6,
-        ),
-        white,
-        one,
-    );
-    push(
-        &mut s,
-        "shoulder".into(),
-        annulus(up(z_open), 0.5, 0.55),
-        white,
-        one,
-    );
-    push(
-        &mut s,
-        "lid-rim".into(),
-        annulus(up(1.54), 0.45, 0.58),
-        white,
-        two,
-    );
-    push(
-        &mut s,
-        "lid-top".into(),
-        annulus(up(z_lid_top), 0.08, 0.25),
-        white,
-        one,
-    );
-    push(
-        &mut s,
-        "knob-washer".into(),
-        annulus(up(neck_top), 0.08, 0.12),
-        white,
-        one,
-    );
-    let mouth = tip + d * (0.1 * flare_phi.sin());
-    push(
-        &mut s,
-        "spout-lip".into(),
-        annulus(frame_facing(mouth, d, DVec3::Y), 0.13, 0.16),
-        white,
-        two,
-    );
     // Thumb rest: rounded rectangle tangent to the top of the handle (x = −1.3,
     // z = 0.95 + 0.45 + 0.07), long side along x.
     let rest = Loop {
@@ -1075,36 +1109,59 @@ pub fn quadric_teapot() -> Result<Scene, SceneError> {
             },
         ],
     };
+    let polygons = [
+        (
+            "bottom",
+            disk(
+                frame_facing(DVec3::new(0.0, 0.0, z_bottom), -DVec3::Z, DVec3::X),
+                0.6,
+            ),
+            one,
+        ),
+        ("shoulder", annulus(up(lv.z_open), 0.5, 0.55), one),
+        ("lid-rim", annulus(up(1.54), 0.45, 0.58), two),
+        ("lid-top", annulus(up(lv.z_lid_top), 0.08, 0.25), one),
+        ("knob-washer", annulus(up(lv.neck_top), 0.08, 0.12), one),
+        (
+            "spout-lip",
+            annulus(frame_facing(mouth, d, DVec3::Y), 0.13, 0.16),
+            two,
+        ),
+        (
+            "thumb-rest",
+            Shape::Polygon(PolygonShape {
+                frame: frame_facing(DVec3::new(-1.3, 0.0, 1.47), DVec3::Z, DVec3::X),
+                outer: rest,
+                holes: Vec::new(),
+            }),
+            two,
+        ),
+    ];
+    for (name, shape, sides) in polygons {
+        push(s, name.into(), shape, m.white, sides);
+    }
+}
+
+/// The teapot's surroundings: the red plate, the light and the camera.
+fn teapot_surroundings(s: &mut Scene, m: &TeapotMaterials) {
     push(
-        &mut s,
-        "thumb-rest".into(),
-        Shape::Polygon(PolygonShape {
-            frame: frame_facing(DVec3::new(-1.3, 0.0, 1.47), DVec3::Z, DVec3::X),
-            outer: rest,
-            holes: Vec::new(),
-        }),
-        white,
-        two,
-    );
-    // Plate and light.
-    push(
-        &mut s,
+        s,
         "plate".into(),
         Shape::parallelogram(DVec3::new(-2.0, -2.0, 0.0), DVec3::X * 4.0, DVec3::Y * 4.0),
-        red,
-        one,
+        m.red,
+        Sidedness::OneSided,
     );
     let lc = DVec3::new(0.9, -0.9, 3.0);
     push(
-        &mut s,
+        s,
         "light".into(),
         Shape::parallelogram(
             lc - DVec3::new(0.075, 0.075, 0.0),
             DVec3::Y * 0.15,
             DVec3::X * 0.15,
         ),
-        light,
-        one,
+        m.light,
+        Sidedness::OneSided,
     );
     if let Some(cam) = Camera::look_at(
         "camera",
@@ -1116,7 +1173,6 @@ pub fn quadric_teapot() -> Result<Scene, SceneError> {
     ) {
         s.cameras.push(cam);
     }
-    Ok(s)
 }
 
 /// Names of the 19 surfaces that make the teapot in [`quadric_teapot`] (12 patches,
