@@ -13,8 +13,9 @@
 //! `S_2[i,·] = Σ_k W_ik T[k,·]`; the level-0 block `M₀ = W|_{k ∈ level 0}` then gives
 //! `S_{b+1}[i,·] = Σ_k M₀[i,k] S_b[k,·]` for `b >= 2`. Links with
 //! `‖S_ij‖ < bounce_epsilon` (default `ε/10`) are dropped after each product (ours; the
-//! seed drops at `ε`, see [`crate::MeshlessConfig::bounce_epsilon`]). Rows run in
-//! parallel, each in a fixed order.
+//! seed drops at `ε`, see [`crate::MeshlessConfig::bounce_epsilon`]), scaled per sender
+//! level like `T`'s threshold ([`crate::LinkThreshold`]). Rows run in parallel, each in
+//! a fixed order.
 
 use std::time::Instant;
 
@@ -136,12 +137,13 @@ impl RowScratch {
         }
     }
 
-    /// The output row with `‖·‖ >= ε` kept, sorted; clears the output.
-    fn take_out(&mut self, epsilon: f64) -> Vec<(u32, Link)> {
+    /// The output row with `‖·‖ >= eps[level of j]` kept, sorted; clears the output.
+    fn take_out(&mut self, basis: &Basis, eps: &[f64]) -> Vec<(u32, Link)> {
         self.otouched.sort_unstable();
         let mut row = Vec::new();
         for &j in &self.otouched {
             let v = self.out[j as usize];
+            let epsilon = eps[basis.level_of(j as usize)];
             if link_norm(&v) >= epsilon && link_norm(&v) > 0.0 {
                 row.push((j, v));
             }
@@ -184,6 +186,7 @@ pub fn bounces(
         }
     }
     let eval = eval_matrix(basis, senders, &|k| active_of[k] != u32::MAX);
+    let eps = config.level_thresholds(true);
     stats.eval_entries = eval.items.len();
     // One parallel pass over the level-0 rows: S_2 rows and M₀ rows.
     let first: Vec<(LinkRow, BlockRow)> = level0
@@ -243,7 +246,7 @@ pub fn bounces(
                 }
                 s.wtouched = touched;
                 s.wtouched.clear();
-                (s.take_out(config.bounce_epsilon_value()), m0)
+                (s.take_out(basis, &eps), m0)
             },
         )
         .collect();
@@ -262,7 +265,7 @@ pub fn bounces(
                             s.add_out(*j, m, l);
                         }
                     }
-                    s.take_out(config.bounce_epsilon_value())
+                    s.take_out(basis, &eps)
                 },
             )
             .collect();

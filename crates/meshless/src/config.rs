@@ -36,6 +36,10 @@ pub struct MeshlessConfig {
     pub gather_rays: usize,
     /// Link threshold `ε` (§4.2: 0.025; dimensionless), `>= 0`.
     pub epsilon: f64,
+    /// How `ε` applies to a sender's level ([`LinkThreshold`]; files written before
+    /// this field existed were built with [`LinkThreshold::Uniform`]).
+    #[serde(default = "LinkThreshold::legacy")]
+    pub threshold: LinkThreshold,
     /// Threshold of the bounce products: links with `‖S_ij‖ < bounce_epsilon` are
     /// dropped after each product `S_{b+1} = T₀·Q·S_b` (ours; `None`: `ε/10`). The seed
     /// drops at `ε`; with `ε = 0.005` that loses ~25 % of the Cornell box's indirect
@@ -72,6 +76,7 @@ impl Default for MeshlessConfig {
             free_reject: 1.0 / 6.0,
             gather_rays: 256,
             epsilon: 0.025,
+            threshold: LinkThreshold::Uniform,
             bounce_epsilon: None,
             bounces: 4,
             seed: 0,
@@ -79,6 +84,40 @@ impl Default for MeshlessConfig {
             max_points: 4_000_000,
             max_links: 200_000_000,
             skip: 1e-3,
+        }
+    }
+}
+
+/// How the link threshold `ε` applies to the senders of each level.
+///
+/// A link `T_ij` is the vector irradiance at `x_i` per unit coefficient of sender `j`,
+/// so it scales with the integral of `B_j`: with Shepard normalisation (eq. (2)) that
+/// is the area per point of the sender's level, `∝ R_l²`. A level-`l` sender's links
+/// are then `4^l` times smaller than a level-0 sender's for the same irradiance per
+/// unit area, and a uniform `ε` drops proportionally more of the finer levels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[non_exhaustive]
+pub enum LinkThreshold {
+    /// `ε` for every link (the seed, Fig. 5; the default).
+    Uniform,
+    /// `ε·(R_l/R_coarse)² = ε/4^l` for a sender on level `l` (ours): the
+    /// threshold follows the sender's support area, so `ε` bounds the dropped
+    /// irradiance per unit sender area alike on every level. Level-0 links are tested
+    /// as in the seed; finer senders keep more links.
+    SenderArea,
+}
+
+impl LinkThreshold {
+    /// The threshold of files written before the field existed.
+    fn legacy() -> Self {
+        Self::Uniform
+    }
+
+    /// The factor of `ε` for a sender on level `l`.
+    pub fn factor(self, l: usize) -> f64 {
+        match self {
+            Self::Uniform => 1.0,
+            Self::SenderArea => 0.25f64.powi(l as i32),
         }
     }
 }
@@ -99,6 +138,19 @@ impl MeshlessConfig {
     /// The threshold of the bounce products ([`MeshlessConfig::bounce_epsilon`]).
     pub fn bounce_epsilon_value(&self) -> f64 {
         self.bounce_epsilon.unwrap_or(self.epsilon / 10.0)
+    }
+
+    /// The link threshold of each sender level `0..sender_levels`: `ε` (or the bounce
+    /// threshold when `bounce` is set) times [`LinkThreshold::factor`].
+    pub fn level_thresholds(&self, bounce: bool) -> Vec<f64> {
+        let eps = if bounce {
+            self.bounce_epsilon_value()
+        } else {
+            self.epsilon
+        };
+        (0..self.sender_levels)
+            .map(|l| eps * self.threshold.factor(l))
+            .collect()
     }
 
     /// `R_coarse` in scene units for a scene whose bounding box has diagonal `diag`.
@@ -302,6 +354,24 @@ mod tests {
         };
         assert!(matches!(c.validate(), Err(MeshlessError::Viewpoint { .. })));
         MeshlessConfig::default().validate().unwrap();
+    }
+
+    #[test]
+    fn thresholds_per_sender_level() {
+        let mut c = MeshlessConfig {
+            epsilon: 0.02,
+            bounce_epsilon: Some(1e-3),
+            ..Default::default()
+        };
+        assert_eq!(c.level_thresholds(false), vec![0.02; 3]);
+        c.threshold = LinkThreshold::SenderArea;
+        assert_eq!(c.level_thresholds(false), vec![0.02, 0.005, 0.00125]);
+        assert_eq!(c.level_thresholds(true), vec![1e-3, 2.5e-4, 6.25e-5]);
+        // A configuration saved before the field existed reads as uniform.
+        let mut v = serde_json::to_value(&c).unwrap();
+        v.as_object_mut().unwrap().remove("threshold");
+        let old: MeshlessConfig = serde_json::from_value(v).unwrap();
+        assert_eq!(old.threshold, LinkThreshold::Uniform);
     }
 
     #[test]

@@ -39,7 +39,7 @@ pub mod transfer;
 pub use backend::{CpuBackend, PackedTransfer, TransferBackend};
 pub use basis::{Basis, BasisPoint};
 pub use bounce::BounceStats;
-pub use config::MeshlessConfig;
+pub use config::{LinkThreshold, MeshlessConfig};
 pub use direct::DirectLighting;
 pub use error::{FileProblem, MeshlessError};
 pub use matrix::{Link, MatrixStats, TransferMatrix, link_norm};

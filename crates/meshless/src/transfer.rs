@@ -16,6 +16,8 @@
 //! link to a level-0 sender is kept when `‖T_ij‖ > ε`, a link to a finer sender when
 //! also `max_{k ∈ neighbours(j)} ‖T_ij − T_ik‖ > ε` (a sender without neighbours keeps
 //! the magnitude test alone, ours); a receiver that keeps any link queues its children.
+//! With [`crate::LinkThreshold::SenderArea`] (ours) both tests of a
+//! level-`l` sender use `ε/4^l`, the threshold scaled with the sender's support area.
 //! Receivers of one level are independent and run in parallel; their rows are written
 //! in receiver order, so `T` does not depend on the thread count.
 
@@ -187,9 +189,9 @@ fn subtract_parents(basis: &Basis, rows: &Rows, i: usize, s: &mut Scratch) {
     s.anc = anc;
 }
 
-/// Applies the Fig. 5 criteria to the scratch row; returns the kept links (sorted) and
-/// the number computed.
-fn select(basis: &Basis, epsilon: f64, s: &mut Scratch) -> (Vec<(u32, Link)>, usize) {
+/// Applies the Fig. 5 criteria to the scratch row with the threshold `eps[l]` of a
+/// level-`l` sender; returns the kept links (sorted) and the number computed.
+fn select(basis: &Basis, eps: &[f64], s: &mut Scratch) -> (Vec<(u32, Link)>, usize) {
     s.touched.sort_unstable();
     let mut kept = Vec::new();
     let mut computed = 0;
@@ -199,10 +201,12 @@ fn select(basis: &Basis, epsilon: f64, s: &mut Scratch) -> (Vec<(u32, Link)>, us
         if norm > 0.0 {
             computed += 1;
         }
+        let level = basis.level_of(j as usize);
+        let epsilon = eps[level];
         if !(norm > epsilon) {
             continue;
         }
-        let keep = if basis.level_of(j as usize) == 0 {
+        let keep = if level == 0 {
             true
         } else {
             let nb = basis.neighbours(j as usize);
@@ -242,6 +246,7 @@ pub fn refine<Q: SurfaceQuery + ?Sized>(
         val: Vec::new(),
     };
     let mut stats = RefineStats::default();
+    let eps = config.level_thresholds(false);
     let mut queue: Vec<usize> = basis.level_range(0).collect();
     for l in 0..levels {
         let mut ls = RefineLevelStats {
@@ -256,7 +261,7 @@ pub fn refine<Q: SurfaceQuery + ?Sized>(
                 |s, &i| {
                     let rays = gather(query, basis, config, i, s);
                     subtract_parents(basis, &rows, i, s);
-                    let (kept, computed) = select(basis, config.epsilon, s);
+                    let (kept, computed) = select(basis, &eps, s);
                     s.clear();
                     (i, kept, computed, rays)
                 },

@@ -6,9 +6,9 @@ use glam::{DMat4, DVec3};
 use wavelux_meshless::bounce::bounces;
 use wavelux_meshless::transfer::{gathered_row, refine};
 use wavelux_meshless::{
-    Basis, CpuBackend, DirectLighting, FileProblem, Indirect, MeshlessConfig, MeshlessError,
-    Precomputed, Relighter, SceneSurfaces, SphereInterior, SurfaceQuery, TransferBackend,
-    link_norm, scene_hash,
+    Basis, CpuBackend, DirectLighting, FileProblem, Indirect, LinkThreshold, MeshlessConfig,
+    MeshlessError, Precomputed, Relighter, SceneSurfaces, SphereInterior, SurfaceQuery,
+    TransferBackend, link_norm, scene_hash,
 };
 use wavelux_scene::builtin::white_furnace;
 use wavelux_scene::meshless_scenes::{SPHERE_RADIUS, SPHERE_RHO, closed_sphere, leak_rooms};
@@ -211,6 +211,68 @@ fn sphere_one_bounce_is_uniform_analytic_and_accel() {
         "sphere: one-bounce energy kept at ε = 0.025: {m3:.4} (lost {:.1} %)",
         100.0 * (1.0 - m3)
     );
+}
+
+/// The sender-area threshold (`ε/4^l` for a level-`l` sender) against the seed's
+/// uniform `ε` on the analytic sphere with one spot: the level-0 receivers' rows (no
+/// ancestors, so the same gathered values) keep every link the uniform threshold keeps,
+/// with the same value; and the one-bounce field at the receivers is closer to the
+/// untruncated one (`ε = 0`, same gather strata, so only the truncation differs).
+#[test]
+fn sender_area_threshold_truncates_less() {
+    let analytic = SphereInterior {
+        center: DVec3::ZERO,
+        radius: SPHERE_RADIUS,
+        reflectance: [SPHERE_RHO; 3],
+    };
+    let light = Light::spot(
+        "s",
+        DVec3::new(0.7, -0.4, 0.5),
+        DVec3::new(-0.3, 1.0, 0.4),
+        25f64.to_radians(),
+        50f64.to_radians(),
+        Rgb::grey(10.0),
+    );
+    let cfg = |epsilon, threshold| MeshlessConfig {
+        receiver_levels: 3,
+        sender_levels: 3,
+        r_coarse: Some(0.15 * SPHERE),
+        epsilon,
+        threshold,
+        bounces: 1,
+        gather_rays: 64,
+        ..Default::default()
+    };
+    let vp = DVec3::new(0.1, 0.2, -0.3);
+    let build = |c: &MeshlessConfig| Precomputed::build_with(&analytic, c, vp, &quiet).unwrap();
+    let uni = build(&cfg(0.01, LinkThreshold::Uniform));
+    let area = build(&cfg(0.01, LinkThreshold::SenderArea));
+    let exact = build(&cfg(0.0, LinkThreshold::Uniform));
+    for i in uni.basis.level_range(0) {
+        let (c, v) = uni.t.row(i);
+        for (j, l) in c.iter().zip(v) {
+            assert_eq!(area.t.get(i, *j as usize), Some(l), "row {i}, sender {j}");
+        }
+    }
+    let field = |pre: &Precomputed| {
+        let rl = Relighter::new(pre, CpuBackend).unwrap();
+        let ind = rl.relight(&analytic, std::slice::from_ref(&light)).unwrap();
+        at_points(&exact, &ind)
+    };
+    let want = field(&exact);
+    let dist = |v: Vec<f64>| {
+        v.iter().zip(&want).map(|(a, b)| (a - b).abs()).sum::<f64>()
+            / want.iter().map(|b| b.abs()).sum::<f64>()
+    };
+    let (du, da) = (dist(field(&uni)), dist(field(&area)));
+    println!(
+        "sphere, ε = 0.01: relative L1 to ε = 0 ({} links): uniform {du:.4} ({} links), \
+         sender area {da:.4} ({} links)",
+        exact.t.nnz(),
+        uni.t.nnz(),
+        area.t.nnz()
+    );
+    assert!(da < du, "sender area {da} vs uniform {du}");
 }
 
 #[test]

@@ -414,6 +414,15 @@ pub enum GammaArg {
     Printed,
 }
 
+/// How the meshless link threshold applies to each sender level.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum LinkThresholdArg {
+    /// eps for every link (the paper's Fig. 5).
+    Uniform,
+    /// eps/4^l for a level-l sender: scaled with the sender's support area (ours).
+    SenderArea,
+}
+
 /// Options of the meshless method (`--method meshless`).
 #[derive(Args, Clone, Debug)]
 pub struct MeshlessArgs {
@@ -437,6 +446,9 @@ pub struct MeshlessArgs {
     /// Meshless: threshold of the bounce products [default: eps/10].
     #[arg(long)]
     pub bounce_eps: Option<f64>,
+    /// Meshless: how eps applies to a sender's level.
+    #[arg(long, value_enum, default_value_t = LinkThresholdArg::Uniform)]
+    pub link_threshold: LinkThresholdArg,
     /// Meshless: viewpoint x,y,z of point placement [default: the scene's first camera,
     /// else the centre of its bounds].
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]

@@ -11,14 +11,14 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use wavelux::meshless::{
-    DirectLighting, MeshlessConfig, PrecomputeStats, Precomputed, Relighter, SceneSurfaces,
-    scene_hash,
+    DirectLighting, LinkThreshold, MeshlessConfig, PrecomputeStats, Precomputed, Relighter,
+    SceneSurfaces, scene_hash,
 };
 use wavelux::render::{Component, IndirectSource, MeshlessField, RenderOptions};
 use wavelux::scene::Scene;
 
 use super::{Job, Method, Outcome, error_check, output, secs, surface_result, warnings};
-use crate::cli::SolveArgs;
+use crate::cli::{LinkThresholdArg, SolveArgs};
 use crate::progress;
 use crate::report;
 use crate::report::WarningInfo;
@@ -39,7 +39,7 @@ struct Meshless {
 
 /// The meshless plan: the knobs of `--levels`, `--sender-levels`, `--r-coarse`,
 /// `--gather-rays`, `--eps` (the link threshold ε, default [`DEFAULT_EPS`]), `--bounces`,
-/// `--bounce-eps`, `--viewpoint`, `--skip`, `--max-points`, `--max-links` and `--seed`,
+/// `--bounce-eps`, `--link-threshold`, `--viewpoint`, `--skip`, `--max-points`, `--max-links` and `--seed`,
 /// checked by [`MeshlessConfig::validate`].
 pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
     Ok(Box::new(Meshless { config: config(a)? }))
@@ -63,6 +63,10 @@ pub fn config(a: &SolveArgs) -> anyhow::Result<MeshlessConfig> {
         gather_rays: m.gather_rays,
         epsilon: a.eps.unwrap_or(DEFAULT_EPS),
         bounce_epsilon: m.bounce_eps,
+        threshold: match m.link_threshold {
+            LinkThresholdArg::SenderArea => LinkThreshold::SenderArea,
+            LinkThresholdArg::Uniform => LinkThreshold::Uniform,
+        },
         bounces: m.bounces,
         seed: a.seed,
         viewpoint,
