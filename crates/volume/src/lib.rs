@@ -33,14 +33,25 @@
 //!   cube per entry face, `G_i(ω)` ([`cell`]), integrated to `Ĝ` over all directions;
 //!   the pixel weights are scaled so that they sum to `Ĝ` exactly. The paper's plain
 //!   `σ` weight is [`cell::Collision::Plain`].
-//! * **Routing** (Γ, eq. (32)). The scattered power `ω C_i` collided through face `i`
-//!   leaves through face `j` with `Γ_ij = (1 − σ) F_ij` (`F`: the cube's interior face
-//!   form factors, opposite 0.19982, adjacent 0.20004). As printed, `Γ_ii = 1`, so a
-//!   row sums to `2 − σ` and creates energy, against the paper's own claim that the
-//!   form factors guarantee no energy is introduced; the default is `Γ_ii = σ` (rows
-//!   sum to 1: an opaque cell reflects through the face it was lit on, a clear one
-//!   passes light to the other faces). The printed form is
-//!   [`cell::GammaMode::Printed`].
+//! * **Routing** (Γ, eq. (32); [`flight`]). The scattered power `ω C_i` collided
+//!   through face `i` leaves through face `j` with `Γ_ij = (1 − σ) F_ij` (`F`: the
+//!   cube's interior face form factors, opposite 0.19982, adjacent 0.20004) and
+//!   `Γ_ii = σ`. As printed, `Γ_ii = 1`, so a row sums to `2 − σ` and creates energy,
+//!   against the paper's own claim that the form factors guarantee no energy is
+//!   introduced; the default `Γ_ii = σ` makes rows sum to 1 (an opaque cell reflects
+//!   through the face it was lit on, a clear one passes light to the other faces).
+//!   The printed form is [`cell::GammaMode::Printed`]. The alternative
+//!   [`cell::GammaMode::FirstFlight`] is the exact first-flight routing of a
+//!   homogeneous cube: of light entering face `i` under uniform radiance and
+//!   scattered once, the fraction `Γ_ij = ∫_V E_i E_j dV / (4π ∫_V E_i dV)` leaves by
+//!   face `j` (`E_j(x)`: face `j`'s attenuated solid angle from `x`); the rest
+//!   collides in the cell again and is then treated as born uniformly in it. Thin
+//!   cells send 24 % of what they scatter back through the entry face, 16 % through
+//!   each side face and 12 % through the opposite one (`Γ_ii = σ`: 0 and 20 %); an
+//!   `A = 1.25` cell returns 34 % of what leaves it by the entry face (`Γ_ii = σ`:
+//!   71 %). Both conserve energy; which is closer to the Monte Carlo tracer depends
+//!   on the depth ("Thick, bright media" below), so the paper's form with `Γ_ii = σ`
+//!   stays the default.
 //! * **Self-interaction.** Sources leave their cell without colliding in it (`m_pp =
 //!   1`, §3.1). Scattered light does collide in its own cell again with the
 //!   probability `π = 1 − Ĝ/(4πA)` of light born uniformly in a cube (a geometric
@@ -72,34 +83,39 @@
 //!
 //! **Thick, bright media** (the open defect of issue 14: a uniformly emitting cube of
 //! optical depth 10 across `8³` voxels, `A = 1.25` per voxel, `ω = 0.99`, `N = 8`:
-//! the account loses 10.8 % with `k = 1` and 5.2 % with `k = 2`, and the
+//! with the paper's one-point escape the account loses 10.8 % with `k = 1`, and the
 //! particle tracer escapes 0.915 of the emitted power against the model's 0.80).
 //! Measured mechanism, two parts:
 //! 1. *Point sampling at the grid's boundary.* One face of one cell emitting 1 W,
-//!    collided plus escaped power (`k = 1` / `2`): inside the medium 0.998–1.001 /
-//!    0.999–1.000 (the point-sampling biases cancel by translation symmetry); at the
-//!    boundary they do not. [`Projector::escape`] looks from each boundary square's
-//!    centre, the point with the longest chord through the thick boundary cell: the
-//!    cell's own outer face is counted 1.24 / 1.10 times, light from its neighbours'
-//!    side faces too little (a boundary cell's side face 0.92 / 0.96, along an edge
-//!    0.86 / 0.94). The faces' powers differ strongly in such a medium (an outer face
-//!    is never lit), and about nine collisions per emitted watt multiply the
-//!    per-bounce deficit. Stratified positions that change from pixel to pixel
-//!    (measured, not adopted: the GPU escape must follow) bring the boundary columns
-//!    to 0.97–1.01 and the loss to 7.0 % / 3.6 %.
-//! 2. *Routing.* Γ with `Γ_ii = σ` sends 71 % of what a cell of `A = 1.25` collides
-//!    back through the face it came in by and 5.8 % through each side face; light
-//!    entering a homogeneous cube of that depth under isotropic radiance and
-//!    scattered once leaves by the entry face 34 %, the opposite face 6.7 % and each
-//!    side face 14.7 % of the time (Monte Carlo, 4·10⁶ paths), so the model keeps
-//!    light inside thick media: it collides 9.2 (`k = 1`) / 9.4 (`k = 2`) times per
-//!    emitted watt against the tracer's 8.6. With those first-flight fractions as Γ
-//!    it collides 7.7 / 8.0 times and escapes 0.86 / 0.89 as measured.
+//!    collided plus escaped power: inside the medium 0.998–1.001 (the point-sampling
+//!    biases cancel by translation symmetry); at the boundary they do not. The
+//!    paper's escape looks from each boundary square's centre, the point with the
+//!    longest chord through the thick boundary cell: it counts the cell's own outer
+//!    face 1.24 times and light from its neighbours' side faces too little (a side
+//!    face 0.92, along an edge 0.86). The faces' powers differ strongly in such a
+//!    medium (an outer face is never lit), and about nine collisions per emitted
+//!    watt multiply the per-bounce deficit. The *conserving escape* (`k ≥ 2`,
+//!    [`backend`] docs) counts the boundary cells' own outer faces exactly (1.0000,
+//!    `tests/conservation.rs`) and moves the sample points from pixel to pixel.
+//! 2. *Routing.* `Γ_ii = σ` sends 71 % of what an `A = 1.25` cell scatters back
+//!    through its entry face, first flights 34 % of what leaves (the rest leaves 6.7 %
+//!    by the opposite face, 14.7 % by each side face, [`flight`]), so the model keeps
+//!    light inside thick media: it collides 9.4 times per emitted watt (`k = 2`)
+//!    against the tracer's 8.6. With the first-flight routing it collides 7.6 times:
+//!    the model's faces emit uniformly over their area, so light that left a cell by
+//!    a side face near its entry face is moved to the middle of that face, deeper
+//!    into the medium, and re-collided light is treated as born uniformly in the cell.
 //!
-//! A conservative model for such media needs a reciprocal escape measurement and the
-//! exact first-flight routing of a homogeneous cube, `Γ_ij ∝ ∫_V E_i E_j dV` with
-//! `E_j(x) = ∫_{face j} e^{−A r} cos θ / r² dA` (symmetric, with the self-collision
-//! of light entering by face `i`); neither is implemented yet.
+//! Measured at `k = 2` with the conserving escape (`8³`, `N = 8`, GMRES 1e-8; the
+//! tracer: absorbed 0.086 / escaped 0.915 at `ω = 0.99`, 0.705 / 0.294 at `ω = 0.5`):
+//! `Γ_ii = σ`: `ω = 0.99` absorbed 0.094, escaped 0.868, balance +3.8 % (+5.2 % with
+//! the one-point escape); `ω = 0.5` 0.704 / 0.286, +1.0 %. First flight: `ω = 0.99`
+//! 0.076 / 0.892, +3.3 %; `ω = 0.5` 0.693 / 0.297, +1.0 %. Against the tracer's
+//! collided power per `2³` block (`k = 1`, `render/tests/volume_model.rs`) the first
+//! flight is closer at `τ = 1` (L1 0.043 against 0.047 at `ω = 0.5`, 0.042 against
+//! 0.057 at `ω = 0.99`) and further at `τ = 10` (0.030 against 0.020; the slab 0.065
+//! against 0.035). What is left is the face-level model's spatial resolution inside a
+//! cell, a discretisation error that falls with refinement at moderate depths.
 //!
 //! # Hierarchy
 //! The non-standard 3D Haar decomposition (seven wavelet types, eqs. (25)–(27)) of
@@ -122,7 +138,8 @@
 //!
 //! # Deviations from the paper (see also `docs/architecture.md`)
 //! Exact chords instead of point-sampled slices; exact collision weights instead of
-//! the plain `σ` weight (optional); `Γ_ii = σ` instead of 1 (optional); eq. (33)'s
+//! the plain `σ` weight (optional); `Γ_ii = σ` instead of 1 (optional; or the
+//! first-flight routing); the conserving escape with `k ≥ 2`; eq. (33)'s
 //! undefined `χ^f` read as `χᵗ`; the pseudocode's `Chi += …` read as `=`; optional
 //! receiver samples (two per axis by default; one point is the paper's).
 
@@ -131,6 +148,7 @@ pub mod backend;
 pub mod cell;
 pub mod cubemap;
 pub mod error;
+pub mod flight;
 pub mod grid;
 pub mod hierarchy;
 pub mod solution;

@@ -14,18 +14,20 @@
 //! leaves by averages `e` to `Σ e_s/6` over the sphere); an empty-opacity cell emits
 //! its source as a thin emitter, `e_s = 6 Chi_s/(4π V)` per unit length.
 //! Scattering: receiver `p` collides `C_p[i]` through entry face `i` from the other
-//! cells (backend docs); with the self-interaction of [`SelfInteraction::Uniform`] a
-//! fraction `π_p` (the self-collision probability of light born uniformly in the
-//! cell) of what it scatters collides in it again, so it collides `C_p/(1 − ω π_p)` in
-//! total and `Chi_p[j] = χᵗV/6 + Σ_i Γ_p[i][j] ω_p (1 − π_p) C_p[i]/(1 − ω_p π_p)`
-//! (energy is conserved: absorbed + scattered out = collided from outside).
+//! cells (backend docs); its routing ([`crate::flight::routing`], per channel) turns
+//! that into `m C_p[i]` collisions in total (re-collisions in the cell included) and
+//! `Chi_p[j] = χᵗV/6 + Σ_i R_p[i][j] m C_p[i]` (default: `Γ_ii = σ`, `Γ_ij = (1 − σ)
+//! F_ij`, scattered light re-colliding with the probability `π_p` of light born
+//! uniformly in the cell; energy is conserved: absorbed + scattered out = collided
+//! from outside).
 
 use std::time::Instant;
 
 use crate::active::{ActiveSet, LeafData, Traversal, WeightCache};
 use crate::backend::{Emission, FaceRgb, GatherStats, ProjectionScene, Projector, Receiver};
-use crate::cell::{Collision, GammaMode, SelfInteraction, depth_of, gamma, self_collision};
+use crate::cell::{Collision, GammaMode, SelfInteraction};
 use crate::error::VolumeError;
+use crate::flight::{Routing, routing};
 use crate::hierarchy::Hierarchy;
 
 /// Settings of the system (not of the solve loop).
@@ -104,8 +106,9 @@ pub struct System<'a> {
     pub receiver_of: Vec<Option<usize>>,
     /// Per leaf: source power per face and channel.
     pub sources: Vec<FaceRgb>,
-    /// Per leaf: the self-collision probability of its scattered light.
-    pub self_collision: Vec<f64>,
+    /// Per leaf and channel: how it turns collided power into collisions and face
+    /// powers ([`crate::flight::routing`]).
+    pub routing: Vec<[Routing; 3]>,
 }
 
 /// Work and time of applications of `K`.
@@ -161,13 +164,11 @@ impl<'a> System<'a> {
             }
             sources.push(f);
         }
-        let self_collision = data
+        let routing = data
             .opacity
             .iter()
-            .map(|&o| match settings.self_interaction {
-                SelfInteraction::Uniform => self_collision(depth_of(o)),
-                SelfInteraction::None => 0.0,
-            })
+            .zip(&data.albedo)
+            .map(|(&o, alb)| alb.map(|w| routing(o, w, settings.gamma, settings.self_interaction)))
             .collect();
         Self {
             projector,
@@ -180,7 +181,7 @@ impl<'a> System<'a> {
             receivers,
             receiver_of,
             sources,
-            self_collision,
+            routing,
         }
     }
 
@@ -280,16 +281,12 @@ impl<'a> System<'a> {
     }
 
     /// Turns the power collided from other cells into the total the cell collides,
-    /// its own re-collisions included: `C / (1 − ω p)`.
+    /// its own re-collisions included ([`Routing::multiplier`]).
     fn to_total(&self, leaf: usize, c: &mut FaceRgb) {
-        let p = self.self_collision[leaf];
-        if p == 0.0 {
-            return;
-        }
-        let alb = self.data.albedo[leaf];
+        let r = &self.routing[leaf];
         for f in c.iter_mut() {
             for ch in 0..3 {
-                f[ch] /= 1.0 - alb[ch] * p;
+                f[ch] *= r[ch].multiplier;
             }
         }
     }
@@ -346,21 +343,16 @@ impl<'a> System<'a> {
             .collect())
     }
 
-    /// Routes receiver `r`'s (total) collided power to its faces:
-    /// `Σ_i Γ[i][j] ω (1 − p) C[i]` (what is scattered and not re-collided).
+    /// Routes receiver `r`'s (total) collided power to its faces
+    /// ([`Routing::matrix`] per channel: what is scattered and not re-collided).
     fn scatter(&self, r: usize, collided: &FaceRgb) -> FaceRgb {
         let i = self.receivers[r].cell as usize;
-        let g = gamma(self.data.opacity[i], self.settings.gamma);
-        let p = self.self_collision[i];
-        let alb = self.data.albedo[i].map(|w| w * (1.0 - p));
         let mut out = [[0.0; 3]; 6];
-        for (fi, row) in g.iter().enumerate() {
-            for (fj, &gij) in row.iter().enumerate() {
-                if gij == 0.0 {
-                    continue;
-                }
-                for c in 0..3 {
-                    out[fj][c] += gij * alb[c] * collided[fi][c];
+        for (c, rt) in self.routing[i].iter().enumerate() {
+            let g = rt.matrix();
+            for (fi, row) in g.iter().enumerate() {
+                for (fj, &gij) in row.iter().enumerate() {
+                    out[fj][c] += gij * collided[fi][c];
                 }
             }
         }

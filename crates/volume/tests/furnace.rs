@@ -13,7 +13,8 @@ use common::{EMPTY, Vox, grid};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 use wavelux_volume::backend::cpu::AntiAlias;
-use wavelux_volume::cell::{Collision, depth_of, self_collision, total_weight};
+use wavelux_volume::cell::{Collision, SelfInteraction, depth_of, total_weight};
+use wavelux_volume::flight::routing;
 use wavelux_volume::{
     CpuProjector, GammaMode, GlobalCubeConfig, Projection, Relaxation, VolumeGrid, VolumeSolution,
     solve,
@@ -70,9 +71,11 @@ fn furnace(n: usize, w: f64, seed: u64) -> VolumeGrid {
             .count();
             L0 * pi * exposed as f64 * H * H
         } else {
-            // Collided from outside L0 Ĝ h², re-collided in the cell: ÷ (1 − ω π).
+            // Collided from outside L0 Ĝ h², re-collided in the cell: × the routing's
+            // multiplier (the model's collisions per collision from outside).
             let a = depth_of(s);
-            L0 * total_weight(a, Collision::Exact) * H * H / (1.0 - w * self_collision(a))
+            let m = routing(s, w, GammaMode::default(), SelfInteraction::Uniform).multiplier;
+            L0 * total_weight(a, Collision::Exact) * H * H * m
         };
         let alb = if shell { 0.0 } else { w };
         let chi = (1.0 - alb) * rate / H.powi(3);

@@ -165,10 +165,9 @@ fn routing_conserves_the_scattered_power() {
             .zip(&sys.receivers)
             .map(|(col, r)| {
                 let i = r.cell as usize;
-                // What leaves: ω (1 − p) of the total collided (the rest re-collides).
-                sys.data.albedo[i][c]
-                    * (1.0 - sys.self_collision[i])
-                    * col.iter().map(|f| f[c]).sum::<f64>()
+                // What leaves per unit of total collisions (the rest re-collides or
+                // is absorbed).
+                sys.routing[i][c].leaving() * col.iter().map(|f| f[c]).sum::<f64>()
             })
             .sum();
         assert!(

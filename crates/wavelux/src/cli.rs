@@ -379,8 +379,9 @@ pub struct VolumeArgs {
     /// neighbour's by more than 50 % is replaced by the mean of N² sub-pixel rays.
     #[arg(long, default_value_t = 8)]
     pub supersample: u32,
-    /// Global cube: routing Γ (eq. 32): `normalized` (Γ_ii = σ, conserves energy) or
-    /// `printed` (Γ_ii = 1 as printed; creates energy).
+    /// Global cube: routing Γ (eq. 32): `normalized` (Γ_ii = σ, conserves energy),
+    /// `first-flight` (the exact first-flight routing of a homogeneous cube; conserves
+    /// energy) or `printed` (Γ_ii = 1 as printed; creates energy).
     #[arg(long, value_enum, default_value_t = GammaArg::Normalized)]
     pub gamma: GammaArg,
     /// Global cube: the medium to solve (required when the scene has several).
@@ -410,6 +411,8 @@ pub enum ProjectionArg {
 pub enum GammaArg {
     /// Γ_ii = σ: rows sum to 1 (energy-conserving; default).
     Normalized,
+    /// The exact first-flight routing of a homogeneous cube (energy-conserving).
+    FirstFlight,
     /// Γ_ii = 1 as printed: rows sum to 2 − σ (creates energy).
     Printed,
 }

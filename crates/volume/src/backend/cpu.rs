@@ -38,6 +38,17 @@ pub enum Projection {
     Pyramid,
 }
 
+/// Where the conserving escape puts pixel `i`'s points in their sub-squares (in
+/// `[0, 1)²`): the R2 low-discrepancy sequence `frac(0.5 + i (1/g, 1/g²))`, `g` the
+/// plastic number 1.3247179572447460 (`g³ = g + 1`); pixels in the order of
+/// [`crate::cubemap::CubeMap::pixels`].
+#[must_use]
+pub fn escape_offset(i: usize) -> [f64; 2] {
+    const G: f64 = 1.324_717_957_244_746;
+    let i = i as f64;
+    [(0.5 + i / G).fract(), (0.5 + i / (G * G)).fract()]
+}
+
 /// The CPU backend.
 #[derive(Debug, Clone, Copy)]
 pub struct CpuProjector {
@@ -49,7 +60,9 @@ pub struct CpuProjector {
     /// of a cell that gathers at its centre, `k²` points of every entry face of a cell
     /// that gathers on its faces (opaque cells always do when `k > 1`), and `k²` points
     /// of every boundary square of the escape measurement; their radiances are
-    /// averaged. `1` is the paper's one ray per pixel from the centre; more samples
+    /// averaged. With `k > 1` the escape is also the conserving one (the boundary
+    /// cells' own outer faces counted exactly, [`super::boundary_emission`]).
+    /// `1` is the paper's one ray per pixel from the centre; more samples
     /// integrate the receiver instead of point-sampling it, which removes the
     /// near-field bias of the transport (energy is then conserved more tightly: see
     /// the crate docs) at `k²`–`k³` times the cost.
@@ -414,6 +427,13 @@ impl Tracer<'_> {
     /// opaque cells that touch along an edge light-tight (every order meets one of
     /// them).
     fn trace(&self, ray: Ray, footprint: f64) -> Traced {
+        self.trace_skipping(ray, footprint, false)
+    }
+
+    /// [`Tracer::trace`]; with `skip_first` the first cell's emission is left out (its
+    /// opacity is not): the conserving escape counts the boundary cells' own faces
+    /// exactly instead ([`super::boundary_emission`]).
+    fn trace_skipping(&self, ray: Ray, footprint: f64, mut skip_first: bool) -> Traced {
         let Ray {
             o,
             d,
@@ -458,7 +478,12 @@ impl Tracer<'_> {
             }
             if contributes {
                 let len = (te - t).max(0.0);
-                let e = self.emission_of(&cur, entry, d);
+                let e = if skip_first {
+                    skip_first = false;
+                    [0.0; 3]
+                } else {
+                    self.emission_of(&cur, entry, d)
+                };
                 steps += 1;
                 let ext = cur.ext;
                 if ext > 0.0 {
@@ -894,6 +919,9 @@ impl Projector for CpuProjector {
         let n = scene.side;
         let footprint = 2.0 / framebuffer as f64;
         let area = scene.voxel * scene.voxel;
+        // More than one receiver sample: the conserving escape (module docs of
+        // `backend`): the boundary cells' own faces exactly, the rays skip them.
+        let conserving = tracer.samples > 1;
         // One task per boundary face and row; rows summed in order.
         let rows: Vec<[f64; 3]> = (0..6 * n)
             .into_par_iter()
@@ -910,7 +938,7 @@ impl Projector for CpuProjector {
                     lo[tb] = j as i64;
                     // The voxel just outside the boundary; its inward face is the square.
                     let inward_face = face_index(axis, !outward_negative);
-                    for pix in &map.pixels {
+                    for (pi, pix) in map.pixels.iter().enumerate() {
                         let c = if outward_negative {
                             pix.dir[axis]
                         } else {
@@ -921,11 +949,20 @@ impl Projector for CpuProjector {
                         }
                         let k = tracer.samples;
                         let w = pix.solid_angle * c / (k * k) as f64;
+                        // The conserving escape moves each pixel's points within
+                        // their sub-squares along the R2 sequence (pixel index `pi`),
+                        // so that the pixels of one square sample it evenly.
+                        let off = if conserving {
+                            escape_offset(pi)
+                        } else {
+                            [0.5, 0.5]
+                        };
                         for jb in 0..k {
                             for ja in 0..k {
-                                let at = [ja, jb].map(|j| (j as f64 + 0.5) / k as f64);
+                                let at = [(ja, off[0]), (jb, off[1])]
+                                    .map(|(j, o)| (j as f64 + o) / k as f64);
                                 let ray = face_ray_at(lo, 1, inward_face, pix.dir, at);
-                                let tr = tracer.trace(ray, footprint);
+                                let tr = tracer.trace_skipping(ray, footprint, conserving);
                                 for ch in 0..3 {
                                     sum[ch] += w * tr.radiance[ch];
                                 }
@@ -936,7 +973,11 @@ impl Projector for CpuProjector {
                 sum
             })
             .collect();
-        let mut total = [0.0; 3];
+        let mut total = if conserving {
+            super::boundary_emission(scene, emission)
+        } else {
+            [0.0; 3]
+        };
         for r in rows {
             for ch in 0..3 {
                 total[ch] += r[ch] * area;

@@ -32,7 +32,17 @@
 //!
 //! [`Projector::escape`] measures the power leaving through the grid's boundary:
 //! for every boundary voxel square, the inward hemisphere of a cube map at its centre,
-//! `Σ ΔΩ · L · cos θ · voxel²`.
+//! `Σ ΔΩ · L · cos θ · voxel²` (the paper's one point per square). The conserving form
+//! (the CPU projector's with more than one receiver sample) counts what the boundary
+//! cells emit through their own outer faces exactly, [`boundary_emission`] (a face `s`
+//! emits `Chi_s` in total, all of it through the boundary), and gathers only the
+//! light of the other cells through the boundary squares: its rays skip the first
+//! cell's emission but not its opacity, and start at points that move from pixel to
+//! pixel inside their sub-squares ([`cpu::escape_offset`], the R2 sequence), so that
+//! light arriving at grazing angles from the neighbouring cells is sampled evenly. One
+//! point per square at a thick boundary cell's centre counts the cell's own face 1.24
+//! times at optical depth 1.25 per voxel (the longest chords); see the crate docs,
+//! "Thick, bright media".
 
 pub mod conformance;
 pub mod cpu;
@@ -213,4 +223,35 @@ pub fn check_inputs(
         }
     }
     Ok(())
+}
+
+/// What the cells touching the grid's boundary emit through their outer faces (W per
+/// channel), exactly: a face `s` of a cell of edge `E` (metres) emits `e_s Ĝ E²/6` in
+/// total (`e_s 4π E³/6` for an empty cell's thin emission; the normalisation of the
+/// module docs), all of it out of the grid when the face lies on the boundary. Part of
+/// the conserving escape measurement (module docs); shared by the backends.
+#[must_use]
+pub fn boundary_emission(scene: &ProjectionScene<'_>, emission: &Emission<'_>) -> [f64; 3] {
+    let n = scene.side as u32;
+    let mut total = [0.0; 3];
+    for (c, e) in scene.cells.iter().zip(emission.coefficients) {
+        let edge = f64::from(c.size) * scene.voxel;
+        let w = if c.extinction > 0.0 {
+            c.total_weight * edge * edge / 6.0
+        } else {
+            4.0 * std::f64::consts::PI * edge * edge * edge / 6.0
+        };
+        for axis in 0..3 {
+            let (lo, hi) = (c.origin[axis], c.origin[axis] + c.size);
+            // Faces +axis (2·axis) and −axis (2·axis + 1).
+            for (on, face) in [(hi == n, 2 * axis), (lo == 0, 2 * axis + 1)] {
+                if on {
+                    for ch in 0..3 {
+                        total[ch] += w * e[face][ch];
+                    }
+                }
+            }
+        }
+    }
+    total
 }

@@ -105,6 +105,7 @@ pub fn config(a: &SolveArgs) -> anyhow::Result<GlobalCubeConfig> {
             ProjectionArg::Pyramid => Projection::Pyramid,
         },
         gamma: match v.gamma {
+            GammaArg::FirstFlight => GammaMode::FirstFlight,
             GammaArg::Normalized => GammaMode::Normalized,
             GammaArg::Printed => GammaMode::Printed,
         },
