@@ -12,7 +12,7 @@
 //! the cube map; each pixel's ray leaves the receiver's centre (or, for a receiver
 //! touching an opaque cell, the centres of its entry faces) at the CPU's sample
 //! position and composites front to back cell by cell, in the same order and with
-//! the same tie rules as the CPU (the paper's back-to-front slices, integrated
+//! the same tie rule and crossing decisions as the CPU (the paper's back-to-front slices, integrated
 //! exactly per cell). The collision weights of eqs. (29)–(31) and the pixel solid
 //! angles become tables computed on the host in f64 (one table per distinct receiver
 //! depth and framebuffer side); the 18 face sums (6 entry faces × RGB) are reduced on
@@ -35,22 +35,24 @@
 //! stepping across the tied axes (an opaque cell beside the edge stops the orders
 //! that meet it, the others enter the next cell through the mixture of faces they end
 //! on). Cube-map pixel centres hit cell edges exactly and systematically (`|u| = |v|`,
-//! and odd ratios `|u| : |v| = 1 : 3, …`), and whether the CPU sees a tie there is
-//! decided by rounding its f64 crossing distances `(b − o)·(1/d)`. The shader decides
-//! which planes a ray meets first, and which at once, on those very f64 values: the
-//! host uploads each pixel's f64 `|1/d|`, and the shader forms `2|b − o|·|1/d|` (an
-//! integer below 2¹³ times a 53-bit significand) exactly in 16-bit limbs and rounds it
-//! to 53 bits as the CPU's multiplication does (`crossing_key` in the WGSL); the
-//! chord lengths stay f32. So on grids of unit cells the GPU agrees with the CPU to
-//! the f32 contract whatever the ties (measured 2.4e-7 of the largest face with
-//! opaque cells and per-face emission). One discrete difference is left: leaving a
-//! coarse cell, the coordinates of the exit point along the other axes (which
-//! neighbouring voxel the ray enters) are computed in f32 here and in f64 on the CPU;
-//! where the ray passes exactly through an edge between two of those neighbours
-//! (again systematic for pixel centres) each precision picks a side by rounding, and
-//! that ray sees another cell (measured on random grids with 4³ leaves: worst face
-//! 3.1e-2, 2.3e-2, 4.0e-3 of a receiver's largest at 8³, 16³, 32³; total power
-//! 2.4e-5, 7.2e-5, 1.8e-6).
+//! odd ratios `|u| : |v| = 1 : 3, …`, and edges between the neighbours of a coarse
+//! cell's face), and there every discrete decision of the traversal is made by
+//! rounding: which planes a ray meets first and which at once (the CPU compares its
+//! f64 distances `(b − o)·(1/d)`), and, leaving a coarse cell, which neighbouring
+//! voxel the exit point `o + t·d` lies in. The shader takes each of these decisions
+//! on the CPU's f64 values, formed exactly in integer arithmetic: the host uploads
+//! each pixel's f64 `|1/d|` and `|d|`; `crossing_key` forms `2|b − o|·|1/d|` (an
+//! integer below 2¹³ times a 53-bit significand) in 16-bit limbs and rounds it to 53
+//! bits as the CPU's multiplication does (an order-preserving key: equal keys are the
+//! CPU's ties); `exit_voxel` forms `t·|d|` as a 106-bit product rounded to 53 bits
+//! and, where the f32 exit coordinate is within 1e-3 of an integer `n`, the exact
+//! difference of `o ± t·|d|` and `n`, which the CPU's sum rounds to `n` itself iff it
+//! is at most half the spacing of doubles at `n`. (Ray origins are multiples of ½
+//! voxel, which keeps `b − o` exact.) Chord lengths, opacities and sums stay f32.
+//! So the GPU takes the CPU's path through the grid ray for ray, and the f32
+//! contract holds with opaque cells and per-face emission too (measured on lavapipe:
+//! 2.1e-7 of the largest face on random grids with 4³ leaves; the earlier f32
+//! decisions left up to 5.5e-2).
 //!
 //! Not implemented here (the CPU projector has them): the pyramid projection and
 //! adaptive supersampling; [`GpuProjector`] is the exact, one-ray-per-pixel projector.
@@ -81,7 +83,7 @@ const OUT_STRIDE: usize = 37;
 /// Bytes of one job record (`Job` in the shader).
 const JOB_BYTES: u64 = 32;
 /// u32 words of one pixel record (`Pixel` in the shader).
-const PIXEL_WORDS: usize = 12;
+const PIXEL_WORDS: usize = 20;
 
 /// The GPU projector (module docs).
 #[derive(Debug)]
@@ -217,6 +219,9 @@ impl GpuProjector {
                     }
                 });
                 let (hi, lo) = (inv.map(|b| (b >> 32) as u32), inv.map(|b| b as u32));
+                // And |d| in f64, from which it forms the CPU's exit points.
+                let dir = p.dir.map(|x| x.abs().to_bits());
+                let (dh, dl) = (dir.map(|b| (b >> 32) as u32), dir.map(|b| b as u32));
                 pixels.push([
                     (p.dir[0] as f32).to_bits(),
                     (p.dir[1] as f32).to_bits(),
@@ -229,6 +234,14 @@ impl GpuProjector {
                     lo[0],
                     lo[1],
                     lo[2],
+                    dh[0],
+                    dh[1],
+                    dh[2],
+                    dl[0],
+                    dl[1],
+                    dl[2],
+                    0,
+                    0,
                     0,
                 ]);
             }

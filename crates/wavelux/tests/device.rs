@@ -145,8 +145,8 @@ fn adapter() -> Option<std::sync::Arc<wavelux::gpu::Gpu>> {
     }
 }
 
-/// The GPU runs the global cube's projection; every result agrees with the CPU's
-/// within what the f32 projector's tie rule allows (see the test's comments).
+/// The GPU runs the global cube's projection; the energy account agrees with the
+/// CPU's to the projector's f32 contract.
 #[cfg(feature = "gpu")]
 #[test]
 fn the_global_cube_on_the_gpu_agrees_with_the_cpu() -> Result<()> {
@@ -182,13 +182,10 @@ fn the_global_cube_on_the_gpu_agrees_with_the_cpu() -> Result<()> {
         v["statistics"]["volume"]["projector"]
     );
     // The energy account: the same emitted power; absorbed and escaped power within
-    // 1e-2 relative. The GPU decides which planes a ray crosses first, and which at
-    // once, on the CPU's f64 distances, but leaving a coarse cell it computes the exit
-    // point's other coordinates in f32 (wavelux_gpu::projector, "Ties"): a ray through
-    // an edge between two of the neighbouring voxels may enter the other one. Measured
-    // 2026-11-25 on lavapipe: with `--levels 0` (unit cells) absorbed and escaped
-    // agree to 3e-7; with this one coarse level absorbed 1.2e-3 and escaped 1.3e-3
-    // (absorbed 2.1e-2 before the WGSL had the tie rule). A wrong kernel is off by O(1).
+    // the projector's f32 contract, 1e-5 relative. The GPU takes the CPU's path
+    // through the grid ray for ray, tie rule and crossing decisions included
+    // (wavelux_gpu::projector, "Ties"); measured 2026-11-25 on lavapipe: 1.9e-7
+    // (2.1e-2 before the WGSL had the tie rule, 1.2e-3 with f32 crossing decisions).
     let (c, g) = (&cpu["statistics"]["volume"], &v["statistics"]["volume"]);
     for key in ["emitted", "absorbed", "escaped"] {
         for ch in 0..3 {
@@ -196,7 +193,7 @@ fn the_global_cube_on_the_gpu_agrees_with_the_cpu() -> Result<()> {
                 c[key][ch].as_f64().context("cpu")?,
                 g[key][ch].as_f64().context("gpu")?,
             );
-            let tol = if key == "emitted" { 1e-12 } else { 1e-2 };
+            let tol = if key == "emitted" { 1e-12 } else { 1e-5 };
             eprintln!(
                 "  {key}[{ch}]: cpu {x} gpu {y} relative {:.2e}",
                 ((x - y) / x).abs()

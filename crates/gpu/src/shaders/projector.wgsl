@@ -39,7 +39,16 @@ struct Pixel {
     il0: u32,
     il1: u32,
     il2: u32,
+    // The CPU's f64 |dir| per axis: high and low words of its bits.
+    dh0: u32,
+    dh1: u32,
+    dh2: u32,
+    dl0: u32,
+    dl1: u32,
+    dl2: u32,
     q0: u32,
+    q1: u32,
+    q2: u32,
 }
 
 struct Job {
@@ -101,6 +110,9 @@ struct Ray {
     // The f64 |1/d| per axis (bits: high, low words), for `crossing_key`.
     ih: vec3<u32>,
     il: vec3<u32>,
+    // The f64 |d| per axis (bits: high, low words), for `exit_voxel`.
+    dh: vec3<u32>,
+    dl: vec3<u32>,
 }
 
 // The CPU's crossing distance |b − o|·|1/d| rounded to f64 (round to nearest even), as
@@ -143,6 +155,166 @@ fn crossing_key(h2: u32, ih: u32, il: u32) -> vec3<u32> {
         }
     }
     return vec3<u32>(e + s, qhi, qlo);
+}
+
+// 16-bit limbs of a 53-bit significand given as bits 52..32 and 31..0.
+fn limbs4(hi: u32, lo: u32) -> array<u32, 4> {
+    return array<u32, 4>(lo & 0xFFFFu, lo >> 16u, hi & 0xFFFFu, hi >> 16u);
+}
+
+// 32 bits of the 16-bit-limb number p starting at bit `start`.
+fn bits32(p: array<u32, 8>, start: u32) -> u32 {
+    var q = p;
+    let i = start / 16u;
+    let off = i32(start % 16u);
+    var v = 0u;
+    for (var k = 0u; k < 3u; k = k + 1u) {
+        let li = i + k;
+        if (li < 8u) {
+            let sh = 16 * i32(k) - off;
+            if (sh >= 0) {
+                if (sh < 32) {
+                    v = v | (q[li] << u32(sh));
+                }
+            } else {
+                v = v | (q[li] >> u32(-sh));
+            }
+        }
+    }
+    return v;
+}
+
+// The voxel the CPU's exit point names along a non-tied axis: voxel_coordinate of the
+// f64 value o + te·d, where te is the f64 crossing distance (`tk`, a crossing_key),
+// (dh, dl) the bits of the f64 |d| (d ≠ 0, sign `dneg`), o2 = 2o (an integer) and xf
+// the same value in f32. Away from integers (more than 1e-3, far above the f32 and
+// f64 errors at coordinates ≤ 1024) the f32 value names the same voxel. Near an
+// integer n the f64 value is formed exactly: te·|d| as a 106-bit integer product of
+// the significands rounded to nearest even at 53 bits (the CPU's multiplication),
+// then its difference z with n − o exactly in 64-bit integers; the CPU's sum rounds
+// to n itself iff |z| is at most half the spacing of doubles at n (n has an even
+// significand, so a tie goes to n).
+fn exit_voxel(xf: f32, o2: i32, dneg: bool, tk: vec3<u32>, dh: u32, dl: u32) -> i32 {
+    var dir = 1.0;
+    if (dneg) {
+        dir = -1.0;
+    }
+    let n = i32(round(xf));
+    if (abs(xf - f32(n)) > 1.0e-3) {
+        return voxel_coordinate(xf, dir);
+    }
+    var a = limbs4(tk.y, tk.z);
+    var b = limbs4((dh & 0xFFFFFu) | 0x100000u, dl);
+    var p: array<u32, 8>;
+    var carry = 0u;
+    for (var k = 0; k < 8; k = k + 1) {
+        var slo = carry;
+        var shi = 0u;
+        for (var i = 0; i < 4; i = i + 1) {
+            let j = k - i;
+            if (j >= 0 && j < 4) {
+                let m = a[i] * b[j];
+                slo = slo + (m & 0xFFFFu);
+                shi = shi + (m >> 16u);
+            }
+        }
+        p[k] = slo & 0xFFFFu;
+        carry = (slo >> 16u) + shi;
+    }
+    // Both significands lie in [2⁵², 2⁵³): the product has 105 or 106 bits.
+    var s = 52u;
+    if ((p[6] >> 9u) != 0u) {
+        s = 53u;
+    }
+    var qlo = bits32(p, s);
+    var qhi = bits32(p, s + 32u) & 0x1FFFFFu;
+    let hb = s - 1u;
+    let half = (p[hb / 16u] >> (hb % 16u)) & 1u;
+    var sticky = (p[hb / 16u] & ((1u << (hb % 16u)) - 1u)) != 0u;
+    for (var i = 0u; i < hb / 16u; i = i + 1u) {
+        sticky = sticky || p[i] != 0u;
+    }
+    if (half == 1u && (sticky || (qlo & 1u) == 1u)) {
+        qlo = qlo + 1u;
+        if (qlo == 0u) {
+            qhi = qhi + 1u;
+        }
+        if (qhi == 0x200000u) {
+            qhi = 0x100000u;
+            s = s + 1u;
+        }
+    }
+    // te·|d| rounded = Q·2^x.
+    let x = (i32(tk.x) - 1076) + (i32((dh >> 20u) & 0x7FFu) - 1075) + i32(s);
+    // z = (o + sign·te|d|) − n = sign·Q·2^x − c with c = (2n − o2)/2.
+    let c2 = 2 * n - o2;
+    var zpos: bool;
+    var dhi: u32;
+    var dlo: u32;
+    if (c2 == 0) {
+        zpos = !dneg;
+        dhi = qhi;
+        dlo = qlo;
+    } else {
+        if ((c2 > 0) == dneg) {
+            return voxel_coordinate(xf, dir);
+        }
+        // |c| in units of 2^x (about 2⁵³: |c| ≈ te·|d|), as a 64-bit integer.
+        let sh = -1 - x;
+        let m = u32(abs(c2));
+        if (sh < 0 || sh + 32 - i32(countLeadingZeros(m)) > 64) {
+            return voxel_coordinate(xf, dir);
+        }
+        var chi = 0u;
+        var clo = 0u;
+        if (sh >= 32) {
+            chi = m << u32(sh - 32);
+        } else if (sh > 0) {
+            clo = m << u32(sh);
+            chi = m >> u32(32 - sh);
+        } else {
+            clo = m;
+        }
+        let q_ge = qhi > chi || (qhi == chi && qlo >= clo);
+        if (q_ge) {
+            dlo = qlo - clo;
+            dhi = qhi - chi - select(0u, 1u, qlo < clo);
+            zpos = !dneg;
+        } else {
+            dlo = clo - qlo;
+            dhi = chi - qhi - select(0u, 1u, clo < qlo);
+            zpos = dneg;
+        }
+    }
+    var on_n = dhi == 0u && dlo == 0u;
+    if (!on_n && n != 0) {
+        let an = u32(abs(n));
+        let kk = 31 - i32(countLeadingZeros(an));
+        var t = kk - 53 - x;
+        // Below a power of two (moving toward zero) the spacing halves.
+        if ((an & (an - 1u)) == 0u && (zpos != (n > 0))) {
+            t = t - 1;
+        }
+        if (t >= 64) {
+            on_n = true;
+        } else if (t >= 32) {
+            let lim = 1u << u32(t - 32);
+            on_n = dhi < lim || (dhi == lim && dlo == 0u);
+        } else if (t >= 0) {
+            let lim = 1u << u32(t);
+            on_n = dhi == 0u && dlo <= lim;
+        }
+    }
+    if (on_n) {
+        if (dneg) {
+            return n - 1;
+        }
+        return n;
+    }
+    if (zpos) {
+        return n;
+    }
+    return n - 1;
 }
 
 fn key_less(a: vec3<u32>, b: vec3<u32>) -> bool {
@@ -201,14 +373,16 @@ fn face_ray(lo: vec3<i32>, size: i32, face: u32, px: Pixel) -> Ray {
     } else {
         idx[axis] = lo[axis] + size;
     }
-    return Ray(o, d, 0.0, idx, unit_entry(axis), 0u, lo, size, inv_hi(px), inv_lo(px));
+    return Ray(o, d, 0.0, idx, unit_entry(axis), 0u, lo, size, inv_hi(px), inv_lo(px), vec3<u32>(px.dh0, px.dh1, px.dh2),
+               vec3<u32>(px.dl0, px.dl1, px.dl2));
 }
 
 // The ray from the centre of the box along d, started inside it.
 fn centre_ray(lo: vec3<i32>, size: i32, px: Pixel) -> Ray {
     let d = px.dir;
     let o = vec3<f32>(lo) + 0.5 * f32(size);
-    return Ray(o, d, 0.0, lo, unit_entry(0), 1u, lo, size, inv_hi(px), inv_lo(px));
+    return Ray(o, d, 0.0, lo, unit_entry(0), 1u, lo, size, inv_hi(px), inv_lo(px), vec3<u32>(px.dh0, px.dh1, px.dh2),
+               vec3<u32>(px.dl0, px.dl1, px.dl2));
 }
 
 // The active cell containing voxel idx, or -1 outside the grid.
@@ -338,7 +512,12 @@ fn trace(ray: Ray) -> vec3<f32> {
         var tied = array<i32, 3>(0, 0, 0);
         var n_tied = 0;
         for (var a = 0; a < 3; a = a + 1) {
-            base[a] = clamp(voxel_coordinate(o[a] + te * d[a], d[a]), lo[a], hi[a] - 1);
+            var v = voxel_coordinate(o[a] + te * d[a], d[a]);
+            if (d[a] != 0.0 && first >= 0) {
+                v = exit_voxel(o[a] + te * d[a], i32(round(2.0 * o[a])), d[a] < 0.0, keys[first],
+                               ray.dh[a], ray.dl[a]);
+            }
+            base[a] = clamp(v, lo[a], hi[a] - 1);
             if (d[a] != 0.0 && all(keys[a] == keys[first])) {
                 if (d[a] > 0.0) {
                     stepped[a] = hi[a];
