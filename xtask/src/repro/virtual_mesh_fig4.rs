@@ -225,7 +225,21 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         "Fig. 4.c — the same patch and curve in natural coordinates: a uniform grid whose \
          cells have surface areas varying by the factor (R + r)/(R − r) = 3.",
     )?);
-    // Fig. 4.a: oblique view of the patch.
+    rep.figures
+        .push(fig4a(ctx, &curve, lines_th, lines_ph, samples)?);
+    rep.figures.push(jacobian_profiles(ctx, &ea, &nat)?);
+    Ok(rep)
+}
+
+/// Fig. 4.a: an oblique view of the patch with its natural iso-lines (`lines_th`,
+/// `lines_ph`, `samples` points each) and the `curve`.
+fn fig4a(
+    ctx: &Ctx,
+    curve: &[DVec3],
+    lines_th: usize,
+    lines_ph: usize,
+    samples: usize,
+) -> anyhow::Result<Figure> {
     let view = |p: DVec3| -> (f64, f64) {
         let (c30, s30) = (PI / 6.0).sin_cos();
         ((p.x - p.y) * s30, p.z + (p.x + p.y) * c30 * 0.35)
@@ -263,13 +277,16 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         &Axis::linear("screen y"),
         &series,
     )?;
-    rep.figures.push(Figure {
+    Ok(Figure {
         path,
         caption: "Fig. 4.a — the torus patch θ ∈ [0, π/2], φ ∈ [0, π) with its natural iso-lines \
                   and the curve, oblique projection."
             .into(),
-    });
-    // Jacobian profiles along v.
+    })
+}
+
+/// The measured Jacobians of both maps along `v` (at `u = π/2`, paper units).
+fn jacobian_profiles(ctx: &Ctx, ea: &Torus, nat: &Torus) -> anyhow::Result<Figure> {
     let n = 200;
     let prof = |m: &Torus| -> Vec<(f64, f64)> {
         (0..n)
@@ -286,15 +303,14 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         &Axis::linear("v"),
         &Axis::linear("Jacobian"),
         &[
-            Series::new("constant-Jacobian map Ψ", prof(&ea), Style::Line),
-            Series::new("natural map (2θ, φ)", prof(&nat), Style::Line),
+            Series::new("constant-Jacobian map Ψ", prof(ea), Style::Line),
+            Series::new("natural map (2θ, φ)", prof(nat), Style::Line),
         ],
     )?;
-    rep.figures.push(Figure {
+    Ok(Figure {
         path,
         caption: "Finite-difference Jacobians of both maps along the v direction: 1 for Ψ, \
                   (cos φ + 2)/2 for the natural map."
             .into(),
-    });
-    Ok(rep)
+    })
 }

@@ -129,37 +129,7 @@ M1, M2, M3, to a 99 % convergence rate. Table 2: with M3 the quadric teapot is m
 as fast (262 s vs 605 s) and needs about a third of the memory (8.1 vs 22.4 Mb) for a similar \
 number of final meshes (16,537 vs 18,217)."
             .into(),
-        we_did: format!(
-            "`wavelux::scene::virtual_mesh::quadric_teapot()`: our teapot with the paper's \
-composition — 12 patches (body as three trimmed spheroid bands whose holes are the computed \
-intersection curves with the spout and the handle, cone and cylinder foot, trimmed cone spout, \
-trimmed torus handle, cylinder collar, spheroid lid, sphere knob) and 7 complex polygons (disks \
-and rings with arc edges, a rounded thumb rest) on a red 4 × 4 m plate under a 15 cm square \
-white emitter. `wavelux-param` has no one-sheet hyperboloid, so the two waisted pieces (spout \
-flare, knob neck) are inner zones of ring tori, the closest existing waisted surfaces of \
-revolution. The tessellated baseline (`wavelux::scene::tessellated`, target {target} \
-primitives for the teapot's 19 surfaces, reached: {n_tess}) uses a common longest edge for all \
-patches found by bisection and a Steiner-free CDT for the polygons; exact parallelogram pairs \
-(cylinder cells) are merged. Deviation: our meshes carry no vertex normals, so the tessellated \
-teapot is flat-shaded where the paper interpolates exact normals. Both scenes are solved by \
-`wavelux::solver::shoot` with identical settings per basis (ε = {}, at most {} levels, minimum \
-element area {} m²), side by side in this process, to a 90 % convergence rate instead of the \
-paper's 99 %: the light's first shot already propagates most of the power (the scene is open, \
-much of it escapes), and from about 95 % on the remaining power is spread over the teapot, so \
-every one of the 1,392 tessellated primitives would shoot onto all others — hours on this \
-shared 2-core machine. We compare the ratios \
-quadrics/tessellated per basis with the paper's; absolute values are context.{}",
-            cfg.eps,
-            cfg.max_level,
-            cfg.min_area,
-            if ctx.quick {
-                " Quick mode runs M1 only."
-            } else {
-                " Full mode runs M3 only (the paper's headline comparison, 262 s vs 605 s): \
-each run takes minutes here, dominated by the near-field quadrature between touching curved \
-patches; the M1 and M2 rows of the paper are listed for reference."
-            }
-        ),
+        we_did: we_did_text(ctx.quick, target, n_tess, &cfg),
         ..Report::default()
     };
     rep.param("tessellation target (teapot primitives)", target);
@@ -187,6 +157,58 @@ patches; the M1 and M2 rows of the paper are listed for reference."
         )
         .comment("bisection on the longest edge; the count moves in steps"),
     );
+    comparison_rows(&mut rep, bases, &runs);
+    rep.tables.push(side_by_side(bases, &runs, n_quad, n_tess));
+    let last = runs.len() - 1;
+    let label_q = format!("quadrics {}", bases[last].name());
+    let label_t = format!("tessellated {}", bases[last].name());
+    rep.figures.push(convergence_figure(
+        ctx,
+        "convergence.svg",
+        "Teapot: quadrics vs tessellated",
+        &[(&label_q, &runs[last].0), (&label_t, &runs[last].1)],
+    )?);
+    Ok(rep)
+}
+
+/// What we did, for the report.
+fn we_did_text(quick: bool, target: usize, n_tess: usize, cfg: &ShootConfig) -> String {
+    format!(
+        "`wavelux::scene::virtual_mesh::quadric_teapot()`: our teapot with the paper's \
+composition — 12 patches (body as three trimmed spheroid bands whose holes are the computed \
+intersection curves with the spout and the handle, cone and cylinder foot, trimmed cone spout, \
+trimmed torus handle, cylinder collar, spheroid lid, sphere knob) and 7 complex polygons (disks \
+and rings with arc edges, a rounded thumb rest) on a red 4 × 4 m plate under a 15 cm square \
+white emitter. `wavelux-param` has no one-sheet hyperboloid, so the two waisted pieces (spout \
+flare, knob neck) are inner zones of ring tori, the closest existing waisted surfaces of \
+revolution. The tessellated baseline (`wavelux::scene::tessellated`, target {target} \
+primitives for the teapot's 19 surfaces, reached: {n_tess}) uses a common longest edge for all \
+patches found by bisection and a Steiner-free CDT for the polygons; exact parallelogram pairs \
+(cylinder cells) are merged. Deviation: our meshes carry no vertex normals, so the tessellated \
+teapot is flat-shaded where the paper interpolates exact normals. Both scenes are solved by \
+`wavelux::solver::shoot` with identical settings per basis (ε = {}, at most {} levels, minimum \
+element area {} m²), side by side in this process, to a 90 % convergence rate instead of the \
+paper's 99 %: the light's first shot already propagates most of the power (the scene is open, \
+much of it escapes), and from about 95 % on the remaining power is spread over the teapot, so \
+every one of the 1,392 tessellated primitives would shoot onto all others — hours on this \
+shared 2-core machine. We compare the ratios \
+quadrics/tessellated per basis with the paper's; absolute values are context.{}",
+        cfg.eps,
+        cfg.max_level,
+        cfg.min_area,
+        if quick {
+            " Quick mode runs M1 only."
+        } else {
+            " Full mode runs M3 only (the paper's headline comparison, 262 s vs 605 s): \
+each run takes minutes here, dominated by the near-field quadrature between touching curved \
+patches; the M1 and M2 rows of the paper are listed for reference."
+        }
+    )
+}
+
+/// Per basis run: the ratio rows of every Table 2 quantity (quadrics / tessellated,
+/// against the paper's) and the convergence each run reached.
+fn comparison_rows(rep: &mut Report, bases: &[BasisKind], runs: &[(Measured, Measured)]) {
     let quantities = [
         Quantity::Leaves,
         Quantity::Time,
@@ -254,6 +276,15 @@ patches; the M1 and M2 rows of the paper are listed for reference."
             Tolerance::AtLeast(CONVERGENCE),
         ));
     }
+}
+
+/// Table 2 side by side: the paper's rows and ours.
+fn side_by_side(
+    bases: &[BasisKind],
+    runs: &[(Measured, Measured)],
+    n_quad: usize,
+    n_tess: usize,
+) -> Table {
     let headers = [
         "geometry",
         "basis",
@@ -300,21 +331,11 @@ patches; the M1 and M2 rows of the paper are listed for reference."
     for (k, (q, _)) in runs.iter().enumerate() {
         rows.push(row("ours, quadrics", &bases[k].name(), q, n_quad));
     }
-    rep.tables.push(Table {
+    Table {
         title: "Table 2 side by side (input primitives: the teapot's own; the scene adds the \
 plate and the light)"
             .into(),
         headers,
         rows,
-    });
-    let last = runs.len() - 1;
-    let label_q = format!("quadrics {}", bases[last].name());
-    let label_t = format!("tessellated {}", bases[last].name());
-    rep.figures.push(convergence_figure(
-        ctx,
-        "convergence.svg",
-        "Teapot: quadrics vs tessellated",
-        &[(&label_q, &runs[last].0), (&label_t, &runs[last].1)],
-    )?);
-    Ok(rep)
+    }
 }

@@ -175,30 +175,7 @@ level with 5×5, 10×10 or 30×30 Gauss points (the algorithm does not converge 
 are needed for a satisfactory image). Table 3: the constant-Jacobian run takes 181 s and 8.1 Mb, \
 the natural ones 304/402/755 s and 18.3 Mb."
             .into(),
-        we_did: format!(
-            "`wavelux::scene::virtual_mesh::chess_set_files({files})`: a board of 64 squares with \
-a frame, {} pieces stacked from cylinders, cone frusta, spheres, spheroids and tori (rook \
-towers trimmed with crenels, knight heads trimmed by a notched profile with an eye hole, \
-bishop mitres with a slanted slot, queen crowns bitten by eight arcs), and a desk lamp (cone \
-shade over an emitter disk): {} surfaces, {curved} curved, {trimmed} trimmed. Solved by \
-`wavelux::solver::shoot` with M2 (linear) wavelets, ε = {}, at most {} levels, minimum element \
-area {} m², to 90 % convergence, once with equal-area supports (`ParamKind::EqualArea`) and \
-`PushPull::Precomputed`, and three times with natural-coordinate supports \
-(`ParamKind::Natural`: curved patches mapped by their natural parameters, non-constant \
-Jacobian) and `PushPull::Natural {{ gauss }}` for gauss = 5, 10, 30 (per-element push/pull \
-integrated with gauss × gauss points per child cell), side by side in this process. We compare the time and memory ratios \
-natural/constant with the paper's and check that the natural-coordinate solutions agree with \
-the constant-Jacobian one (area-weighted relative L1 difference of the per-surface mean \
-radiosities). Deviation: only the first file's four pieces stand on the board (the \
-full 32-piece set, `chess_set()`, is built and tested but its solves take far longer than the \
-few minutes budgeted for a reproduction on this shared 2-core machine), and the solver's \
-settings are coarse for the same reason.",
-            4 * files,
-            scene.surfaces.len(),
-            cfg.eps,
-            cfg.max_level,
-            cfg.min_area,
-        ),
+        we_did: we_did_text(&scene, files, curved, trimmed, &cfg),
         ..Report::default()
     };
     rep.param("chess files", files);
@@ -316,6 +293,55 @@ settings are coarse for the same reason.",
             Tolerance::AtLeast(0.90),
         ));
     }
+    rep.tables.push(side_by_side(&constant, &natural));
+    rep.figures.push(convergence_figure(
+        ctx,
+        "convergence.svg",
+        "Chess set: constant vs natural Jacobian (M2)",
+        &[
+            ("constant Jacobian", &constant),
+            ("natural 10×10", &natural[1]),
+        ],
+    )?);
+    Ok(rep)
+}
+
+/// What we did, for the report.
+fn we_did_text(
+    scene: &Scene,
+    files: usize,
+    curved: usize,
+    trimmed: usize,
+    cfg: &ShootConfig,
+) -> String {
+    format!(
+        "`wavelux::scene::virtual_mesh::chess_set_files({files})`: a board of 64 squares with \
+a frame, {} pieces stacked from cylinders, cone frusta, spheres, spheroids and tori (rook \
+towers trimmed with crenels, knight heads trimmed by a notched profile with an eye hole, \
+bishop mitres with a slanted slot, queen crowns bitten by eight arcs), and a desk lamp (cone \
+shade over an emitter disk): {} surfaces, {curved} curved, {trimmed} trimmed. Solved by \
+`wavelux::solver::shoot` with M2 (linear) wavelets, ε = {}, at most {} levels, minimum element \
+area {} m², to 90 % convergence, once with equal-area supports (`ParamKind::EqualArea`) and \
+`PushPull::Precomputed`, and three times with natural-coordinate supports \
+(`ParamKind::Natural`: curved patches mapped by their natural parameters, non-constant \
+Jacobian) and `PushPull::Natural {{ gauss }}` for gauss = 5, 10, 30 (per-element push/pull \
+integrated with gauss × gauss points per child cell), side by side in this process. We compare the time and memory ratios \
+natural/constant with the paper's and check that the natural-coordinate solutions agree with \
+the constant-Jacobian one (area-weighted relative L1 difference of the per-surface mean \
+radiosities). Deviation: only the first file's four pieces stand on the board (the \
+full 32-piece set, `chess_set()`, is built and tested but its solves take far longer than the \
+few minutes budgeted for a reproduction on this shared 2-core machine), and the solver's \
+settings are coarse for the same reason.",
+        4 * files,
+        scene.surfaces.len(),
+        cfg.eps,
+        cfg.max_level,
+        cfg.min_area,
+    )
+}
+
+/// Table 3 side by side: the paper's rows and ours.
+fn side_by_side(constant: &Measured, natural: &[Measured]) -> Table {
     let mut rows = vec![
         vec![
             "paper, non-constant Jacobian".into(),
@@ -361,8 +387,8 @@ settings are coarse for the same reason.",
             &natural[k],
         ));
     }
-    rows.push(row("ours, constant Jacobian", "precomputed", &constant));
-    rep.tables.push(Table {
+    rows.push(row("ours, constant Jacobian", "precomputed", constant));
+    Table {
         title: "Table 3 side by side".into(),
         headers: [
             "mappings",
@@ -376,15 +402,5 @@ settings are coarse for the same reason.",
         .map(String::from)
         .to_vec(),
         rows,
-    });
-    rep.figures.push(convergence_figure(
-        ctx,
-        "convergence.svg",
-        "Chess set: constant vs natural Jacobian (M2)",
-        &[
-            ("constant Jacobian", &constant),
-            ("natural 10×10", &natural[1]),
-        ],
-    )?);
-    Ok(rep)
+    }
 }

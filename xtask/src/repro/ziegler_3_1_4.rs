@@ -282,15 +282,36 @@ L1 error of the projections of f and of the smooth g = √(xy)."
         ..Report::default()
     };
     let rules = Rules::new()?;
-    let g32 = GaussLegendre::new(32)?.unit();
     report.param("functions per axis", 32);
     report.param("levels (ours / Ziegler)", "Haar 5/5, MW (M2) 4/4, CDV 5/3");
     let bases = bases()?;
+    let samples = if ctx.quick { 512 } else { 2048 };
+    fig3_5(ctx, &mut report, &bases, samples)?;
+    // (b), (c) 2D: per basis the coefficients of f (3.4) and of g.
+    let mut coeffs2: Vec<[Vec<f64>; 2]> = Vec::new();
+    for b in &bases {
+        let cf = project_moments(b.mra.as_ref(), 2, b.level, |q, out| {
+            moments_2d(&rules, q, true, out)
+        })?;
+        let cg = project_moments(b.mra.as_ref(), 2, b.level, |q, out| {
+            moments_2d(&rules, q, false, out)
+        })?;
+        coeffs2.push([cf, cg]);
+    }
+    compression(&mut report, &bases, &coeffs2)?;
+    let by_grid = l1_errors(ctx, &mut report, &bases, &coeffs2)?;
+    fig3_6(ctx, &mut report, &bases, &coeffs2, samples)?;
+    report.we_did = we_did_text();
+    register_deviations(&mut report, &by_grid);
+    Ok(report)
+}
 
+/// (a) Fig. 3.5: the 1D projections of f (3.3) in every basis, `samples + 1` points.
+fn fig3_5(ctx: &Ctx, report: &mut Report, bases: &[Basis], samples: usize) -> anyhow::Result<()> {
+    let g32 = GaussLegendre::new(32)?.unit();
     // (a) 1D projections, Fig. 3.5.
     let mut series = Vec::new();
     let clamp = 6.0;
-    let samples = if ctx.quick { 512 } else { 2048 };
     let fpts: Vec<(f64, f64)> = (0..=samples)
         .map(|i| {
             let x = i as f64 / samples as f64;
@@ -298,7 +319,7 @@ L1 error of the projections of f and of the smooth g = √(xy)."
         })
         .collect();
     series.push(Series::new("f", fpts, Style::Line));
-    for b in &bases {
+    for b in bases {
         let c = project_moments(b.mra.as_ref(), 1, b.level, |q, out| {
             moments_1d(&g32, q, out)
         })?;
@@ -332,19 +353,17 @@ basis, evaluated at 2049 dyadic points; values clamped to ±6 because f has a po
             .into(),
     });
 
-    // (b), (c) 2D.
-    let mut coeffs2: Vec<[Vec<f64>; 2]> = Vec::new();
-    for b in &bases {
-        let cf = project_moments(b.mra.as_ref(), 2, b.level, |q, out| {
-            moments_2d(&rules, q, true, out)
-        })?;
-        let cg = project_moments(b.mra.as_ref(), 2, b.level, |q, out| {
-            moments_2d(&rules, q, false, out)
-        })?;
-        coeffs2.push([cf, cg]);
-    }
+    Ok(())
+}
 
-    // Compression (non-standard, as in Ziegler App. A.1, down to the coarsest level).
+/// Compression (non-standard, as in Ziegler App. A.1, down to the coarsest level; the
+/// standard decomposition for comparison): the share of wavelet coefficients of f
+/// (3.4) below each ε, rows against the thesis's table.
+fn compression(
+    report: &mut Report,
+    bases: &[Basis],
+    coeffs2: &[[Vec<f64>; 2]],
+) -> anyhow::Result<()> {
     let mut comp_rows = Vec::new();
     let mut comp_std_rows = Vec::new();
     let mut shares = vec![[0.0; 3]; PAPER_EPS.len()];
@@ -407,7 +426,17 @@ coefficients with |d| < ε"
         }
     }
 
-    // Relative L1 errors, with their dependence on the evaluation grid.
+    Ok(())
+}
+
+/// Relative L1 errors of the 2D projections, with their dependence on the evaluation
+/// grid (midpoint rule on n × n); returns every row's values per grid.
+fn l1_errors(
+    ctx: &Ctx,
+    report: &mut Report,
+    bases: &[Basis],
+    coeffs2: &[[Vec<f64>; 2]],
+) -> anyhow::Result<Vec<GridValues>> {
     let grids: Vec<usize> = if ctx.quick {
         vec![32, 64, 128, 256, 512, 1024]
     } else {
@@ -461,7 +490,17 @@ the finest grid is the converged value used in the rows above"
         rows: l1_table,
     });
 
-    // Fig. 3.6 analogue: slices of the 2D projections.
+    Ok(by_grid)
+}
+
+/// Fig. 3.6 analogue: slices (x = y and y = 0.75) of the 2D projections of f (3.4).
+fn fig3_6(
+    ctx: &Ctx,
+    report: &mut Report,
+    bases: &[Basis],
+    coeffs2: &[[Vec<f64>; 2]],
+    samples: usize,
+) -> anyhow::Result<()> {
     for (name, title, line) in [
         (
             "fig3.6-diagonal.svg",
@@ -516,9 +555,7 @@ projections as images; we plot slices."
         });
     }
 
-    report.we_did = we_did_text();
-    register_deviations(&mut report, &by_grid);
-    Ok(report)
+    Ok(())
 }
 
 /// Ziegler §3.1.4's MW error of g (1.87e-3) lies between our midpoint-rule values on
