@@ -54,8 +54,13 @@
 //! 2.1e-7 of the largest face on random grids with 4³ leaves; the earlier f32
 //! decisions left up to 5.5e-2).
 //!
+//! Receiver samples ([`GpuProjector::with_receiver_samples`], `k` = 1, 2, 4 or 8): the
+//! CPU's `k³` points of a cell or `k²` of each entry face, averaged in the shader;
+//! with `k > 1` the conserving escape runs on the CPU.
+//!
 //! Not implemented here (the CPU projector has them): the pyramid projection and
-//! adaptive supersampling; [`GpuProjector`] is the exact, one-ray-per-pixel projector.
+//! adaptive supersampling; [`GpuProjector`] is the exact projector, one ray per pixel
+//! and receiver sample.
 //!
 //! # Determinism
 //! Each workgroup sums its pixels in a fixed order (invocation `i` takes pixels
@@ -66,7 +71,7 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use wavelux_volume::VolumeError;
-use wavelux_volume::backend::cpu::MIN_TRANSMITTANCE;
+use wavelux_volume::backend::cpu::{AntiAlias, CpuProjector, MIN_TRANSMITTANCE, Projection};
 use wavelux_volume::backend::{
     Emission, FaceRgb, GatherStats, ProjectionScene, Projector, Receiver, TraversalCell,
     check_inputs,
@@ -90,6 +95,7 @@ const PIXEL_WORDS: usize = 20;
 pub struct GpuProjector {
     gpu: Arc<Gpu>,
     limit: Option<u64>,
+    samples: u32,
     pipeline: OnceLock<Result<wgpu::ComputePipeline, GpuError>>,
     /// Calls share nothing on the device but the pipeline; one at a time keeps the
     /// device's memory bounded.
@@ -102,9 +108,22 @@ impl GpuProjector {
         GpuProjector {
             gpu,
             limit: None,
+            samples: 1,
             pipeline: OnceLock::new(),
             lock: Mutex::new(()),
         }
+    }
+
+    /// Gathers from `k` ray origins per axis of each receiver, as
+    /// [`CpuProjector::with_receiver_samples`] (`k³` points of a cell, `k²` of each entry
+    /// face of a cell touching an opaque one or opaque itself). `k` must be 1, 2, 4 or 8
+    /// (origins at multiples of `1/(2k)` voxel, which keeps the shader's crossing
+    /// decisions exact; other values are a typed error at the call). With `k > 1` the
+    /// escape is the CPU's conserving one ([`CpuProjector::escape`], run on the CPU: its
+    /// points follow an irrational sequence the shader cannot place exactly).
+    pub fn with_receiver_samples(mut self, k: u32) -> GpuProjector {
+        self.samples = k;
+        self
     }
 
     /// Lowers the per-buffer binding limit to `bytes` (at least 4096) so that smaller
@@ -130,6 +149,24 @@ impl GpuProjector {
                 .scoped(|| Ok(self.gpu.pipeline("wavelux projector", SHADER, "main")))
         });
         p.as_ref().map_err(Clone::clone)
+    }
+
+    /// Receiver samples the shader places exactly (`with_receiver_samples`), with
+    /// `2k·(side + 1) < 2¹⁶` for its crossing keys.
+    fn check_samples(&self, scene: &ProjectionScene<'_>) -> Result<(), VolumeError> {
+        let k = self.samples;
+        if !matches!(k, 1 | 2 | 4 | 8) {
+            return Err(self.backend_error(format!(
+                "receiver samples {k}: the GPU projector takes 1, 2, 4 or 8"
+            )));
+        }
+        if 2 * u64::from(k) * (scene.side as u64 + 1) >= 1 << 16 {
+            return Err(self.backend_error(format!(
+                "receiver samples {k} on a {}³ grid: ray origins need 2k·(side + 1) < 65536",
+                scene.side
+            )));
+        }
+        Ok(())
     }
 
     fn backend_error(&self, reason: String) -> VolumeError {
@@ -314,7 +351,7 @@ impl GpuProjector {
                 (scene.voxel as f32).to_bits(),
                 (MIN_TRANSMITTANCE as f32).to_bits(),
                 mode,
-                0,
+                if mode == 0 { self.samples } else { 1 },
                 0,
                 0,
             ];
@@ -445,6 +482,7 @@ impl Projector for GpuProjector {
         out: &mut [FaceRgb],
     ) -> Result<GatherStats, VolumeError> {
         check_inputs(&self.name(), scene, emission, receivers, out.len())?;
+        self.check_samples(scene)?;
         let _guard = self
             .lock
             .lock()
@@ -500,7 +538,8 @@ impl Projector for GpuProjector {
                 };
                 let lo = cell.origin.map(i64::from);
                 let size = i64::from(cell.size);
-                let per_face = touches_opaque(scene, lo, size);
+                let per_face = touches_opaque(scene, lo, size)
+                    || (self.samples > 1 && cell.extinction == f64::INFINITY);
                 jobs.push([
                     cell.origin[0],
                     cell.origin[1],
@@ -546,6 +585,13 @@ impl Projector for GpuProjector {
             return Err(self.backend_error(format!(
                 "framebuffer {framebuffer} outside 1..={MAX_FRAMEBUFFER}"
             )));
+        }
+        self.check_samples(scene)?;
+        if self.samples > 1 {
+            // The conserving escape (see `with_receiver_samples`).
+            return CpuProjector::new(Projection::Exact, AntiAlias::OFF)
+                .with_receiver_samples(self.samples)
+                .escape(scene, emission, framebuffer);
         }
         let _guard = self
             .lock

@@ -341,6 +341,40 @@ fn tie_sensitive_grids_are_rotation_invariant_and_agree_with_the_cpu() -> anyhow
     Ok(())
 }
 
+/// Receiver samples (`k³` points of a cell, `k²` of each entry face of cells touching
+/// or being opaque) on the tie-sensitive grids: the GPU averages the same rays as the
+/// CPU (origins at multiples of `1/(2k)` voxel, crossings decided on the CPU's f64
+/// values), so they agree to the contract; the escape with `k > 1` is the CPU's
+/// conserving one, bit for bit; other `k` are a typed error.
+#[test]
+fn receiver_samples_agree_with_the_cpu() -> anyhow::Result<()> {
+    for gpu in common::gpus("projector receiver samples") {
+        for (side, seed, step, k) in [(8, 1, 5, 2), (8, 5, 31, 4), (16, 2, 97, 2)] {
+            let s = random_scene(side, seed);
+            let rec = receivers(&s, step);
+            let cpu = CpuProjector::new(Projection::Exact, AntiAlias::OFF).with_receiver_samples(k);
+            let p = GpuProjector::new(gpu.clone()).with_receiver_samples(k);
+            let g = gather(&p, &s, Collision::Exact, &rec)?;
+            let c = gather(&cpu, &s, Collision::Exact, &rec)?;
+            let w = worst_relative(&g, &c);
+            eprintln!(
+                "  {side}³, k = {k}, {} receivers: worst relative face error {w:.3e}",
+                rec.len()
+            );
+            assert!(w <= CONTRACT, "{side}³ k = {k}: {w:e}");
+            let e_gpu = p.escape(&s.view(), &s.emission(), 4)?;
+            let e_cpu = cpu.escape(&s.view(), &s.emission(), 4)?;
+            assert_eq!(e_gpu, e_cpu, "escape k = {k}");
+        }
+        let s = random_scene(8, 1);
+        let rec = receivers(&s, 50);
+        let p = GpuProjector::new(gpu).with_receiver_samples(3);
+        let err = gather(&p, &s, Collision::Exact, &rec).expect_err("k = 3 is refused");
+        assert!(err.to_string().contains("1, 2, 4 or 8"), "{err}");
+    }
+    Ok(())
+}
+
 #[test]
 fn chunked_dispatches_equal_one_and_escape_agrees() -> anyhow::Result<()> {
     let cpu = CpuProjector::new(Projection::Exact, AntiAlias::OFF);

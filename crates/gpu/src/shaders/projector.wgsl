@@ -12,7 +12,8 @@ struct Params {
     min_trans: f32,
     // 0: gather, 1: escape.
     mode: u32,
-    p0: u32,
+    // Receiver samples per axis (a power of two; 1 for the escape).
+    samples: u32,
     p1: u32,
     p2: u32,
 }
@@ -79,6 +80,10 @@ const BIG: f32 = 3.0e38;
 const OUT_STRIDE: u32 = 37u;
 
 var<private> steps: u32;
+// Receiver samples per axis k (a power of two) and log2(2k): ray origins are
+// multiples of 1/(2k) voxel, so 2k·o is an integer.
+var<private> samples: u32;
+var<private> lk: u32;
 
 // 1 − e^{−x} without cancellation for small x (Horner; degree 12 at x < 0.5 leaves a
 // relative truncation error below 0.5¹²/13! ≈ 4e-14).
@@ -117,10 +122,11 @@ struct Ray {
 
 // The CPU's crossing distance |b − o|·|1/d| rounded to f64 (round to nearest even), as
 // an order-preserving key (exponent, significand bits 52..32, bits 31..0). `h2` is
-// 2|b − o|, an integer below 2¹³ (ray origins are multiples of ½ voxel, grids at most
-// 1024 voxels); (ih, il) are the bits of the f64 |1/d|. The product of h2 and the
-// 53-bit significand is formed exactly in 16-bit limbs (below 2⁶⁶), then rounded to
-// 53 bits; the common factor ½ and the exponent bias do not change the order.
+// 2k|b − o|, an integer below 2¹⁶ (ray origins are multiples of 1/(2k) voxel; the host
+// checks the bound); (ih, il) are the bits of the f64 |1/d|. The product of h2 and
+// the 53-bit significand is formed exactly in 16-bit limbs (below 2⁶⁹, every limb
+// product and carry below 2³²), then rounded to 53 bits; the common factor 1/(2k) and
+// the exponent bias do not change the order.
 fn crossing_key(h2: u32, ih: u32, il: u32) -> vec3<u32> {
     let e = (ih >> 20u) & 0x7FFu;
     let mh = (ih & 0xFFFFFu) | 0x100000u;
@@ -186,7 +192,7 @@ fn bits32(p: array<u32, 8>, start: u32) -> u32 {
 
 // The voxel the CPU's exit point names along a non-tied axis: voxel_coordinate of the
 // f64 value o + te·d, where te is the f64 crossing distance (`tk`, a crossing_key),
-// (dh, dl) the bits of the f64 |d| (d ≠ 0, sign `dneg`), o2 = 2o (an integer) and xf
+// (dh, dl) the bits of the f64 |d| (d ≠ 0, sign `dneg`), o2 = 2k·o (an integer) and xf
 // the same value in f32. Away from integers (more than 1e-3, far above the f32 and
 // f64 errors at coordinates ≤ 1024) the f32 value names the same voxel. Near an
 // integer n the f64 value is formed exactly: te·|d| as a 106-bit integer product of
@@ -245,9 +251,9 @@ fn exit_voxel(xf: f32, o2: i32, dneg: bool, tk: vec3<u32>, dh: u32, dl: u32) -> 
         }
     }
     // te·|d| rounded = Q·2^x.
-    let x = (i32(tk.x) - 1076) + (i32((dh >> 20u) & 0x7FFu) - 1075) + i32(s);
-    // z = (o + sign·te|d|) − n = sign·Q·2^x − c with c = (2n − o2)/2.
-    let c2 = 2 * n - o2;
+    let x = (i32(tk.x) - 1075 - i32(lk)) + (i32((dh >> 20u) & 0x7FFu) - 1075) + i32(s);
+    // z = (o + sign·te|d|) − n = sign·Q·2^x − c with c = (2k·n − o2)/2k.
+    let c2 = i32(2u * samples) * n - o2;
     var zpos: bool;
     var dhi: u32;
     var dlo: u32;
@@ -260,7 +266,7 @@ fn exit_voxel(xf: f32, o2: i32, dneg: bool, tk: vec3<u32>, dh: u32, dl: u32) -> 
             return voxel_coordinate(xf, dir);
         }
         // |c| in units of 2^x (about 2⁵³: |c| ≈ te·|d|), as a 64-bit integer.
-        let sh = -1 - x;
+        let sh = -i32(lk) - x;
         let m = u32(abs(c2));
         if (sh < 0 || sh + 32 - i32(countLeadingZeros(m)) > 64) {
             return voxel_coordinate(xf, dir);
@@ -356,12 +362,15 @@ fn inv_lo(px: Pixel) -> vec3<u32> {
     return vec3<u32>(px.il0, px.il1, px.il2);
 }
 
-// The ray from the centre of face `face` of the box [lo, lo + size) along d.
-fn face_ray(lo: vec3<i32>, size: i32, face: u32, px: Pixel) -> Ray {
+// The ray from the point of face `face` of the box [lo, lo + size) at fractions `at`
+// of the side along the face's two tangent axes (the next axes cyclically), along d.
+fn face_ray(lo: vec3<i32>, size: i32, face: u32, px: Pixel, at: vec2<f32>) -> Ray {
     let d = px.dir;
     let axis = i32(face / 2u);
     let negative = (face % 2u) == 1u;
-    var o = vec3<f32>(lo) + 0.5 * f32(size);
+    var o = vec3<f32>(lo);
+    o[(axis + 1) % 3] = o[(axis + 1) % 3] + at.x * f32(size);
+    o[(axis + 2) % 3] = o[(axis + 2) % 3] + at.y * f32(size);
     if (negative) {
         o[axis] = f32(lo[axis]);
     } else {
@@ -377,10 +386,11 @@ fn face_ray(lo: vec3<i32>, size: i32, face: u32, px: Pixel) -> Ray {
                vec3<u32>(px.dl0, px.dl1, px.dl2));
 }
 
-// The ray from the centre of the box along d, started inside it.
-fn centre_ray(lo: vec3<i32>, size: i32, px: Pixel) -> Ray {
+// The ray from the point at fractions `at` of the box's side along d, started inside
+// it.
+fn box_ray(lo: vec3<i32>, size: i32, px: Pixel, at: vec3<f32>) -> Ray {
     let d = px.dir;
-    let o = vec3<f32>(lo) + 0.5 * f32(size);
+    let o = vec3<f32>(lo) + at * f32(size);
     return Ray(o, d, 0.0, lo, unit_entry(0), 1u, lo, size, inv_hi(px), inv_lo(px), vec3<u32>(px.dh0, px.dh1, px.dh2),
                vec3<u32>(px.dl0, px.dl1, px.dl2));
 }
@@ -466,8 +476,9 @@ fn trace(ray: Ray) -> vec3<f32> {
                     b = hi[a];
                 }
                 ta[a] = (f32(b) - o[a]) * inv[a];
-                let h2 = u32(abs(2 * b - i32(round(2.0 * o[a]))));
-                keys[a] = crossing_key(h2, ray.ih[a], ray.il[a]);
+                let k2 = i32(2u * samples);
+                let h = u32(abs(k2 * b - i32(round(f32(k2) * o[a]))));
+                keys[a] = crossing_key(h, ray.ih[a], ray.il[a]);
                 if (first < 0 || key_less(keys[a], keys[first])) {
                     first = a;
                 }
@@ -514,7 +525,7 @@ fn trace(ray: Ray) -> vec3<f32> {
         for (var a = 0; a < 3; a = a + 1) {
             var v = voxel_coordinate(o[a] + te * d[a], d[a]);
             if (d[a] != 0.0 && first >= 0) {
-                v = exit_voxel(o[a] + te * d[a], i32(round(2.0 * o[a])), d[a] < 0.0, keys[first],
+                v = exit_voxel(o[a] + te * d[a], i32(round(f32(2u * samples) * o[a])), d[a] < 0.0, keys[first],
                                ray.dh[a], ray.dl[a]);
             }
             base[a] = clamp(v, lo[a], hi[a] - 1);
@@ -635,15 +646,34 @@ fn gather_pixel(job: Job, p: u32) {
     }
     var ent = array<u32, 3>(px.entry & 255u, (px.entry >> 8u) & 255u, (px.entry >> 16u) & 255u);
     var rad: array<vec3<f32>, 3>;
-    if (job.flags == 1u) {
+    let ks = samples;
+    let fk = f32(ks);
+    if ((job.flags & 1u) == 1u) {
+        // k × k points of each entry face (the midpoints of a k × k split).
+        let inv = 1.0 / (fk * fk);
         for (var k = 0; k < 3; k = k + 1) {
             rad[k] = vec3<f32>(0.0);
             if (w[k] > 0.0) {
-                rad[k] = trace(face_ray(job.lo, job.size, ent[k], px));
+                for (var jb = 0u; jb < ks; jb = jb + 1u) {
+                    for (var ja = 0u; ja < ks; ja = ja + 1u) {
+                        let at = (vec2<f32>(f32(ja), f32(jb)) + 0.5) / fk;
+                        rad[k] = rad[k] + inv * trace(face_ray(job.lo, job.size, ent[k], px, at));
+                    }
+                }
             }
         }
     } else {
-        let r = trace(centre_ray(job.lo, job.size, px));
+        // k³ points of the cell (the midpoints of a k × k × k split).
+        let inv = 1.0 / (fk * fk * fk);
+        var r = vec3<f32>(0.0);
+        for (var jz = 0u; jz < ks; jz = jz + 1u) {
+            for (var jy = 0u; jy < ks; jy = jy + 1u) {
+                for (var jx = 0u; jx < ks; jx = jx + 1u) {
+                    let at = (vec3<f32>(f32(jx), f32(jy), f32(jz)) + 0.5) / fk;
+                    r = r + inv * trace(box_ray(job.lo, job.size, px, at));
+                }
+            }
+        }
         rad[0] = r;
         rad[1] = r;
         rad[2] = r;
@@ -667,7 +697,7 @@ fn escape_pixel(job: Job, p: u32) {
     if (c <= 0.0) {
         return;
     }
-    let r = trace(face_ray(job.lo, 1, face, px));
+    let r = trace(face_ray(job.lo, 1, face, px, vec2<f32>(0.5)));
     for (var ch = 0u; ch < 3u; ch = ch + 1u) {
         add(ch, (px.solid_angle * c) * r[ch]);
     }
@@ -682,6 +712,8 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec
         acc_c[i] = 0.0;
     }
     steps = 0u;
+    samples = max(params.samples, 1u);
+    lk = 1u + firstTrailingBit(samples);
     if (j < params.jobs) {
         let job = jobs[j];
         for (var p = lid; p < job.npix; p = p + WG) {
