@@ -34,9 +34,18 @@
 //! view by its own quadrature (the coarse link's `α` instead let a leaf behind an
 //! occluder receive up to 2 % more than it sees in the Cornell box).
 //!
-//! What it costs in accuracy: the defect is charged against the leaf's own radiosity
-//! `B_i` instead of its ancestors' emitters `B_E`, so it is exact for uniform radiosity
-//! and otherwise trades the projection error `δ (B_E)` for `δ (B_E − B_i)`.
+//! What it costs in accuracy: the defect is charged against the leaf's own reflected
+//! radiosity `B_i − E_i` instead of its ancestors' emitters' reflected radiosity
+//! `B_E − E_E`; the emitted part, known exactly, is charged against the emitters
+//! themselves as a source `s_i = Σ_l δ_il E_{E_l}` ([`Closure::source`], added to the
+//! right-hand side by [`crate::system::System::with_closure_source`]). The closure is
+//! thus exact for uniform radiosity (a uniformly emitting white furnace included) and
+//! otherwise trades the projection error `δ (B_E − E_E)` for `δ ((B_E − E_E) −
+//! (B_i − E_i))`. Charging the whole `B_i` instead made an emitter's own defect
+//! (about 1 % of its view) act on its emission, ~100× its reflected radiosity: the
+//! Cornell box light's reflected radiosity came out +195 % at the first round (issue
+//! 12, trade's session 23 measurement), and direct light received `δ B_i` instead of
+//! `δ E_light`.
 
 use rayon::prelude::*;
 
@@ -50,14 +59,27 @@ pub fn is_closure_link(patches: &[crate::support::Patch], l: &LinkRec) -> bool {
     l.r == l.e && patches[l.r.patch as usize].support.is_planar()
 }
 
-/// The closure links of the links `links` compiled into `h` (see the module docs), one
-/// per leaf with a non-zero defect, in leaf order. Links whose pieces are not planar
-/// polygons (curved, disk, partial virtual pieces) contribute no defect.
-pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) -> Vec<LinkRec> {
+/// The closure of a compiled hierarchy: its links and the emitted part of its defects.
+#[derive(Debug, Clone, Default)]
+pub struct Closure {
+    /// One closure link per leaf with a non-zero defect, in leaf order.
+    pub links: Vec<LinkRec>,
+    /// Per leaf with a defect next to an emitter (its own or a linked one's emission
+    /// non-zero): `Σ_l δ_il (E_{E_l,c} − E_{i,c})`, irradiance coefficients (`n` per
+    /// channel, channel-major, W/m² times √m²) that, times the leaf's reflectance, make
+    /// the closure links act on `B − E` and the emitted part reach the leaf from its
+    /// actual emitters (see the module docs).
+    pub source: Vec<(NodeKey, Vec<f64>)>,
+}
+
+/// The closure of the links `links` compiled into `h` (see the module docs). Links
+/// whose pieces are not planar polygons (curved, disk, partial virtual pieces)
+/// contribute no defect.
+pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) -> Closure {
     let n = h.n;
     let basis = ctx.basis();
     let node_of = |k: &NodeKey| h.keys.binary_search(k).ok();
-    let parts: Vec<Vec<(u32, Vec<f64>)>> = links
+    let parts: Vec<Vec<(u32, Vec<f64>, u32)>> = links
         .par_iter()
         .map(|l| {
             let mut out = Vec::new();
@@ -138,7 +160,7 @@ pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) ->
                         let own = ctx.visible_fraction(&kr, &er).unwrap_or(alpha);
                         d[0] = own * m[0] / s - v[n];
                     }
-                    out.push((i as u32, d));
+                    out.push((i as u32, d, l.e.patch));
                     continue;
                 }
                 for (c, &ci) in ch.iter().enumerate() {
@@ -158,16 +180,36 @@ pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) ->
     // Sum per leaf in link order (deterministic whatever the thread count).
     let mut defect = vec![0.0; h.node_count() * n];
     let mut touched = vec![false; h.node_count()];
-    for (i, d) in parts.into_iter().flatten() {
-        touched[i as usize] = true;
-        for (acc, v) in defect[i as usize * n..][..n].iter_mut().zip(&d) {
+    // Σ_l δ_il (E_{E_l} − E_i) per channel, for leaves next to an emitter.
+    let mut emitted: Vec<Option<Vec<f64>>> = vec![None; h.node_count()];
+    for (i, d, e) in parts.into_iter().flatten() {
+        let i = i as usize;
+        touched[i] = true;
+        for (acc, v) in defect[i * n..][..n].iter_mut().zip(&d) {
             *acc += v;
+        }
+        let ee = ctx.patches[e as usize].emission;
+        let ei = ctx.patches[h.keys[i].patch as usize].emission;
+        if ee.iter().chain(&ei).any(|&x| x != 0.0) {
+            let s = emitted[i].get_or_insert_with(|| vec![0.0; 3 * n]);
+            for c in 0..3 {
+                let de = ee[c] - ei[c];
+                for (acc, v) in s[c * n..][..n].iter_mut().zip(&d) {
+                    *acc += v * de;
+                }
+            }
         }
     }
     let mut out = Vec::new();
+    let mut source = Vec::new();
     for (i, k) in h.keys.iter().enumerate() {
         if !touched[i] {
             continue;
+        }
+        if let Some(s) = emitted[i].take()
+            && s.iter().any(|v| *v != 0.0)
+        {
+            source.push((*k, s));
         }
         let d = &defect[i * n..][..n];
         if d.iter().all(|v| *v == 0.0) {
@@ -187,5 +229,5 @@ pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) ->
             seen: LinkVisibility::Unknown,
         });
     }
-    out
+    Closure { links: out, source }
 }

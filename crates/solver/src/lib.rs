@@ -515,7 +515,7 @@ pub fn solve_channel(
     x0: Option<Vec<f64>>,
     reference: Option<Vec<f64>>,
 ) -> Result<(Vec<f64>, Convergence), SolverError> {
-    let b = system.emission(ch);
+    let b = system.source(ch);
     linear_solve(
         &system.channel(ch),
         &b,
@@ -733,14 +733,17 @@ pub(crate) fn solve_links(
     let t_ref = Instant::now();
     let h = Hierarchy::compile(prep.basis.n(), patches.len(), links);
     // Closure links (one per leaf whose row sum the links' pushed projections miss).
-    let closing = closure::closure_links(ctx, &h, links);
+    let closure::Closure {
+        links: closing,
+        source,
+    } = closure::closure_links(ctx, &h, links);
     let h = if closing.is_empty() {
         h
     } else {
         let all: Vec<LinkRec> = links.iter().chain(&closing).cloned().collect();
         Hierarchy::compile(prep.basis.n(), patches.len(), &all)
     };
-    let system = System::new(h, &prep.basis, patches);
+    let system = System::new(h, &prep.basis, patches).with_closure_source(&source);
     let standard = match cfg.decomposition {
         Decomposition::Standard => Some(StandardSystem::from_system(&system, &prep.basis)?),
         _ => None,

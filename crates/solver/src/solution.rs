@@ -162,6 +162,9 @@ impl Solution {
         for ch in 0..3 {
             system.pull_from_leaves(&leaf_b[ch], &mut node_b[ch]);
             leaf_h[ch] = system.irradiance(&leaf_b[ch]);
+            if let Some(extra) = system.closure_irradiance(ch) {
+                leaf_h[ch].iter_mut().zip(extra).for_each(|(h, e)| *h += e);
+            }
             let mut sum_b = 0.0;
             let mut sum_h = 0.0;
             let mut abs = 0.0;

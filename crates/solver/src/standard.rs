@@ -619,13 +619,14 @@ impl<'a> StandardSystem<'a> {
             });
     }
 
-    /// The emission vector of channel `ch` in tree wavelet coefficients.
+    /// The right-hand side of channel `ch` in tree wavelet coefficients: the emission
+    /// plus the closure's emitted part ([`System::source`]).
     ///
     /// # Errors
     /// [`SolverError::OutOfRange`] for `ch > 2`.
     pub fn emission(&self, ch: usize) -> Result<Vec<f64>, SolverError> {
         check_channel(ch)?;
-        self.decompose(&self.sys.emission(ch))
+        self.decompose(&self.sys.source(ch))
     }
 
     /// `K` of one channel as a [`wavelux_linear::Operator`] (apply, transpose, rows,

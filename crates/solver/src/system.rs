@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use wavelux_linear::{Operator, Unsupported};
 
 use crate::basis::TreeBasis;
-use crate::hierarchy::Hierarchy;
+use crate::hierarchy::{Hierarchy, NodeKey};
 use crate::mask::Coverage;
 use crate::support::{Patch, Support};
 use crate::transfer::Region;
@@ -146,6 +146,11 @@ pub struct System {
     pub coverage_counts: [usize; 3],
     /// Nodes of each patch in level order.
     patch_nodes: Vec<Vec<u32>>,
+    /// Irradiance per channel (leaf coefficients) that does not depend on the
+    /// radiosity: the closure's emitted part ([`crate::closure::Closure::source`]),
+    /// added to the right-hand side by [`Self::source`] (times the reflectance) and to
+    /// a solution's irradiance; empty when none.
+    extra_irradiance: [Vec<f64>; 3],
 }
 
 impl System {
@@ -201,7 +206,48 @@ impl System {
             leaf_real_area,
             leaf_real_moments,
             coverage_counts,
+            extra_irradiance: std::array::from_fn(|_| Vec::new()),
         }
+    }
+
+    /// The system with the closure's emitted part as an extra source: `source` holds
+    /// per leaf node (by key) and channel the irradiance coefficients
+    /// `Σ_l δ_il (E_{E_l} − E_i)` of [`crate::closure::Closure::source`] (`n` per
+    /// channel, channel-major). Keys that are not leaves are ignored.
+    pub fn with_closure_source(mut self, source: &[(NodeKey, Vec<f64>)]) -> Self {
+        if source.is_empty() {
+            return self;
+        }
+        let n = self.h.n;
+        let dim = self.dim();
+        let mut extra: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; dim]);
+        for (key, s) in source {
+            let Ok(node) = self.h.keys.binary_search(key) else {
+                continue;
+            };
+            let leaf = self.h.leaf_of[node];
+            if leaf == u32::MAX {
+                continue;
+            }
+            let l = leaf as usize;
+            for (c, e) in extra.iter_mut().enumerate() {
+                for a in 0..n {
+                    e[l * n + a] += s[c * n + a];
+                }
+            }
+        }
+        self.extra_irradiance = extra;
+        self
+    }
+
+    /// The irradiance of channel `ch` that does not depend on the radiosity (leaf
+    /// coefficients, [`Self::with_closure_source`]); `None` when there is none. A
+    /// solution's irradiance is [`Self::irradiance`] of its radiosity plus this.
+    pub fn closure_irradiance(&self, ch: usize) -> Option<&[f64]> {
+        self.extra_irradiance
+            .get(ch)
+            .filter(|e| !e.is_empty())
+            .map(Vec::as_slice)
     }
 
     /// The hierarchy and links (read-only).
@@ -229,6 +275,21 @@ impl System {
             let s = self.node_area[i as usize].sqrt();
             for a in 0..n {
                 b[l * n + a] = e * s * self.integrals[a];
+            }
+        }
+        b
+    }
+
+    /// The right-hand side `b` of a channel's solve: [`Self::emission`] plus the
+    /// closure's emitted part ([`Self::with_closure_source`]), so that the closure
+    /// links act on the reflected radiosity `B − E` only.
+    pub fn source(&self, ch: usize) -> Vec<f64> {
+        let mut b = self.emission(ch);
+        if let Some(extra) = self.closure_irradiance(ch) {
+            let n = self.h.n;
+            for (l, (b, e)) in b.chunks_mut(n).zip(extra.chunks(n)).enumerate() {
+                let rho = self.leaf_rho[l][ch];
+                b.iter_mut().zip(e).for_each(|(b, e)| *b += rho * e);
             }
         }
         b

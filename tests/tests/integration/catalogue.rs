@@ -162,12 +162,13 @@ fn elements_at_level_12() {
     let n = prep.basis.n();
     let h = Hierarchy::compile(n, patches.len(), &links);
     let closing = closure::closure_links(&ctx, &h, &links);
-    let all: Vec<_> = links.iter().chain(&closing).cloned().collect();
+    let all: Vec<_> = links.iter().chain(&closing.links).cloned().collect();
     let sys = System::new(
         Hierarchy::compile(n, patches.len(), &all),
         &prep.basis,
         patches,
-    );
+    )
+    .with_closure_source(&closing.source);
     let (x, conv) = solve_channel(
         &sys,
         0,
