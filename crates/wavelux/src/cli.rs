@@ -169,6 +169,13 @@ pub struct SolveArgs {
     /// --max-level or --basis cdv ask for one fixed-threshold refinement.
     #[arg(long, value_parser = parse_fraction, conflicts_with_all = ["eps", "oracle"])]
     pub target_error: Option<f64>,
+    /// With a target error (given or the default): every face side's own estimated
+    /// relative L1 error must reach this as well (`0.03` or `3%`; `off`: the
+    /// scene-wide target alone) [default: the target error]. A looser face goal is
+    /// cheaper: the built-in Cornell box at 2 % reaches texel error 1.45 % with every
+    /// face at 3 % in about a third of the CPU of every face at 2 % (1.10 %).
+    #[arg(long, value_parser = parse_face_target)]
+    pub face_target: Option<f64>,
     /// Refinement threshold (see --oracle for its unit); with `gather`, selects one
     /// fixed-threshold refinement instead of the default target error [default: 0.01;
     /// meshless: the dimensionless link threshold, 0.005].
@@ -486,6 +493,16 @@ fn parse_fraction(v: &str) -> Result<f64, String> {
         Ok(x)
     } else {
         Err(format!("{v:?} must be in (0, 1) (or (0 %, 100 %))"))
+    }
+}
+
+/// `--face-target`: a fraction or percentage in (0, 1), or `off` (infinity: the
+/// per-face goal switched off).
+fn parse_face_target(v: &str) -> Result<f64, String> {
+    if v.trim().eq_ignore_ascii_case("off") {
+        Ok(f64::INFINITY)
+    } else {
+        parse_fraction(v)
     }
 }
 

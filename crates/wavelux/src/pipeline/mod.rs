@@ -111,6 +111,12 @@ pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
         }
         return target::plan(a, t);
     }
+    if a.face_target.is_some() {
+        bail!(
+            "--face-target applies to the target-error loop (--target-error, or a gather \
+             solve without --eps, --oracle, --max-level or --basis cdv)"
+        );
+    }
     match a.method {
         MethodArg::Reference => reference::plan(a),
         MethodArg::Shoot => shoot::plan(a),

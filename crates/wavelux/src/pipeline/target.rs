@@ -63,6 +63,7 @@ pub fn plan(a: &SolveArgs, target: f64) -> anyhow::Result<Box<dyn Method>> {
     let mut cfg = TargetConfig {
         target,
         basis: a.basis.map(basis_kind),
+        face_target: a.face_target,
         ..TargetConfig::default()
     };
     cfg.solver.max_level = a.max_level.unwrap_or(MAX_LEVEL);
@@ -223,5 +224,36 @@ mod tests {
         ] {
             assert_eq!(target_of(fixed), None, "{fixed:?}");
         }
+    }
+
+    fn face_of(args: &[&str]) -> Result<Option<f64>, clap::Error> {
+        let mut v = vec!["wavelux"];
+        v.extend_from_slice(args);
+        SolveOnly::try_parse_from(v).map(|s| s.args.face_target)
+    }
+
+    /// `--face-target` takes a fraction, a percentage or `off`; it is an error where
+    /// no target-error loop runs.
+    #[test]
+    fn the_face_target_parses_and_needs_the_target_loop() {
+        assert_eq!(face_of(&[]).unwrap(), None);
+        assert_eq!(face_of(&["--face-target", "3%"]).unwrap(), Some(0.03));
+        assert_eq!(face_of(&["--face-target", "0.05"]).unwrap(), Some(0.05));
+        assert_eq!(
+            face_of(&["--face-target", "off"]).unwrap(),
+            Some(f64::INFINITY)
+        );
+        for bad in ["0", "1.5", "nan", "-2%", "x"] {
+            assert!(face_of(&["--face-target", bad]).is_err(), "{bad}");
+        }
+        let args = SolveOnly::try_parse_from(["wavelux", "--face-target", "3%", "--eps", "0.01"])
+            .expect("valid arguments")
+            .args;
+        let err = crate::pipeline::plan(&args).err().expect("an error");
+        assert!(err.to_string().contains("--face-target"), "{err}");
+        let args = SolveOnly::try_parse_from(["wavelux", "--face-target", "3%"])
+            .expect("valid arguments")
+            .args;
+        assert!(crate::pipeline::plan(&args).is_ok());
     }
 }
