@@ -13,7 +13,8 @@
 //! A device failure during the run moves the rest of the run to the CPU (same
 //! settings, the CPU reference kernel) and is recorded in `fallback`. The kernels
 //! wired so far: the global cube's projection (`wavelux_gpu::GpuProjector`, the exact
-//! one-ray-per-pixel projection with one receiver sample and no supersampling,
+//! projection with one ray per pixel and receiver sample, 1, 2, 4 or 8 receiver
+//! samples per axis, no supersampling,
 //! [`FallbackProjector`]) and the meshless relighting product `S·e`
 //! (`wavelux_gpu::GpuTransfer`, [`DeviceTransfer`]).
 

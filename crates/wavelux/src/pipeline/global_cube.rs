@@ -221,7 +221,8 @@ impl Method for GlobalCube {
         let sol = match job.device.gpu() {
             Some(gpu) => {
                 let p = super::device::FallbackProjector::new(
-                    wavelux::gpu::GpuProjector::new(gpu),
+                    wavelux::gpu::GpuProjector::new(gpu)
+                        .with_receiver_samples(self.receiver_samples),
                     cpu,
                     job.device,
                 );
@@ -272,14 +273,15 @@ impl Method for GlobalCube {
     }
 
     /// The GPU projector ([`wavelux::gpu::GpuProjector`] in `gpu` builds) is the exact
-    /// projection with one ray per pixel from one receiver sample.
+    /// projection with one ray per pixel and receiver sample, for 1, 2, 4 or 8 receiver
+    /// samples per axis (with more than one, its escape runs on the CPU).
     fn gpu_kernel(&self) -> Result<(), String> {
         let mut missing = Vec::new();
         if self.config.projection != Projection::Exact {
             missing.push("--projection pyramid");
         }
-        if self.receiver_samples != 1 {
-            missing.push("--receiver-samples above 1");
+        if !matches!(self.receiver_samples, 1 | 2 | 4 | 8) {
+            missing.push("--receiver-samples other than 1, 2, 4 or 8");
         }
         if self.supersample != 1 {
             missing.push("--supersample above 1 (the default 8)");
@@ -288,8 +290,9 @@ impl Method for GlobalCube {
             Ok(())
         } else {
             Err(format!(
-                "the GPU projector computes the exact projection with one ray per pixel \
-                 (--projection exact --receiver-samples 1 --supersample 1) and has no {}",
+                "the GPU projector computes the exact projection with one ray per pixel and \
+                 receiver sample (--projection exact --receiver-samples 1|2|4|8 \
+                 --supersample 1) and has no {}",
                 missing.join(", no ")
             ))
         }
