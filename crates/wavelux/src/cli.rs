@@ -378,8 +378,8 @@ pub struct VolumeArgs {
     /// Global cube: ray origins per axis of a receiver (1..=8): k³ points of a
     /// cell, k² points of each face of an opaque cell; 1 is the paper's one point.
     /// More samples integrate the receiver and tighten energy conservation at k²–k³
-    /// times the projection cost.
-    #[arg(long, default_value_t = 1)]
+    /// times the projection cost; the default 2 is the conservative operator.
+    #[arg(long, default_value_t = wavelux::volume::backend::cpu::DEFAULT_RECEIVER_SAMPLES)]
     pub receiver_samples: u32,
     /// Global cube: sub-pixels per side of the adaptive supersampling (1..=16; 1: off,
     /// the paper's one ray per pixel): a pixel whose radiance differs from a
