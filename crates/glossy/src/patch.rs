@@ -106,6 +106,8 @@ pub struct Patch {
     /// A curved side that sees itself (no self-link is made; its self-transfer is
     /// reported as lost).
     pub sees_itself: bool,
+    /// `±1`: this side's normal over the curved map's own normal (`1` for planar maps).
+    orientation: f64,
 }
 
 impl Patch {
@@ -127,36 +129,53 @@ impl Patch {
         !self.brdf.is_black()
     }
 
-    /// The support's `∂/∂s` direction at `(s, t)` (see the module docs).
-    fn d_ds(&self, s: f64, t: f64) -> DVec3 {
+    /// The support's `∂/∂s` and `∂/∂t` directions at `(s, t)` of a planar map (see
+    /// the module docs; curved maps go through [`Self::point_frame`]).
+    fn planar_derivatives(&self, s: f64) -> (DVec3, DVec3) {
         match self.support.map {
-            SupportMap::Parallelogram { edge_u, .. } => edge_u,
-            SupportMap::Triangle { a, b, .. } => b - a,
-            SupportMap::Disk { u, .. } => u,
-            SupportMap::Mapped { .. } => {
-                let h = 1e-5;
-                let (s0, s1) = ((s - h).max(0.0), (s + h).min(1.0));
-                self.support.point(s1, t) - self.support.point(s0, t)
+            SupportMap::Parallelogram { edge_u, edge_v, .. } => (edge_u, edge_v),
+            SupportMap::Triangle { a, b, c } => {
+                // a + √s((1−t)(b−a) + t(c−a)).
+                let r = s.max(1e-12).sqrt();
+                (b - a, r * (c - b))
             }
+            SupportMap::Disk { u, v, .. } => (u, v),
+            SupportMap::Mapped { .. } => (DVec3::ZERO, DVec3::ZERO),
         }
-    }
-
-    fn d_dt(&self, s: f64, t: f64) -> DVec3 {
-        let h = 1e-5;
-        let (t0, t1) = ((t - h).max(0.0), (t + h).min(1.0));
-        self.support.point(s, t1) - self.support.point(s, t0)
     }
 
     /// The shading frame at `(s, t)`: normal of this side, tangent from the surface's
     /// tangent or `∂/∂s` (then `∂/∂t`, then any) projected onto the tangent plane.
     #[must_use]
     pub fn frame(&self, s: f64, t: f64) -> Frame {
-        let n = self.support.normal_at(s, t);
-        let hint = self.tangent.unwrap_or_else(|| self.d_ds(s, t));
-        Frame::new(n, hint)
-            .or_else(|| Frame::new(n, self.d_ds(s, t)))
-            .or_else(|| Frame::new(n, self.d_dt(s, t)))
-            .unwrap_or_else(|| Frame::any(n))
+        self.point_frame(s, t).2
+    }
+
+    /// Position, unit normal of this side and shading frame ([`Self::frame`]) at
+    /// `(s, t)`, from a single evaluation of a curved map (`∂Ψ∘Λ/∂s` by the chain rule
+    /// through the support's affine `Λ`; an equal-area Bézier evaluation costs
+    /// thousands of area-element evaluations, so the transport asks once per point).
+    #[must_use]
+    pub fn point_frame(&self, s: f64, t: f64) -> (DVec3, DVec3, Frame) {
+        let (p, n, d_ds, d_dt) = match (&self.support.map, &self.support.param) {
+            (SupportMap::Mapped { origin, e1, e2 }, Some(psi)) => {
+                let e = psi.eval(*origin + s * *e1 + t * *e2);
+                let d_ds = e.dp_du * e1.x + e.dp_dv * e1.y;
+                let d_dt = e.dp_du * e2.x + e.dp_dv * e2.y;
+                (e.position, self.orientation * e.normal, d_ds, d_dt)
+            }
+            _ => {
+                let (p, n) = self.support.point_normal(s, t);
+                let (d_ds, d_dt) = self.planar_derivatives(s);
+                (p, n, d_ds, d_dt)
+            }
+        };
+        let hint = self.tangent.unwrap_or(d_ds);
+        let frame = Frame::new(n, hint)
+            .or_else(|| Frame::new(n, d_ds))
+            .or_else(|| Frame::new(n, d_dt))
+            .unwrap_or_else(|| Frame::any(n));
+        (p, n, frame)
     }
 }
 
@@ -218,6 +237,22 @@ fn texmap(scene: &Scene, surface: usize, piece: usize, set: u32) -> Option<TexMa
     } else {
         let t = m.triangles.get(piece - np)?;
         Some(TexMap::Triangle(t.map(|i| uv[i as usize])))
+    }
+}
+
+/// `±1`: a curved support's side normal over its map's own normal (`1` for planar
+/// maps), so that [`Patch::point_frame`] needs one evaluation of the map.
+fn orientation_of(support: &Support) -> f64 {
+    match (&support.map, &support.param) {
+        (SupportMap::Mapped { origin, e1, e2 }, Some(psi)) => {
+            let n = psi.normal(*origin + 0.5 * (*e1 + *e2));
+            if support.normal_at(0.5, 0.5).dot(n) < 0.0 {
+                -1.0
+            } else {
+                1.0
+            }
+        }
+        _ => 1.0,
     }
 }
 
@@ -347,6 +382,7 @@ impl GlossyScene {
                 importance: named.contains(&surf.name),
                 frustum: None,
                 sees_itself: side.support.sees_itself(),
+                orientation: orientation_of(&side.support),
             };
             if let Some(t) = tangent {
                 let n = p.support.normal_at(0.5, 0.5);
@@ -523,5 +559,6 @@ fn eye_patch(file: &str, cam: &Camera, aspect: f64, diag: f64) -> Result<Patch, 
             tan_y,
         }),
         sees_itself: false,
+        orientation: 1.0,
     })
 }

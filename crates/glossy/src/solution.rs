@@ -872,7 +872,7 @@ impl GlossySolution {
         emitted: bool,
     ) -> [f64; 3] {
         let p = &self.scene.patches[patch];
-        let fy = p.frame(st.x, st.y);
+        let (y, ny, fy) = p.point_frame(st.x, st.y);
         let wo = fy.to_local(w.normalize());
         if !crate::positive(wo.z) {
             return [0.0; 3];
@@ -886,9 +886,11 @@ impl GlossySolution {
         if brdf.is_black() || rays == 0 {
             return out;
         }
-        let y = p.support.point(st.x, st.y);
-        let yv = p.support.visibility_point(st.x, st.y);
-        let ny = p.support.normal_at(st.x, st.y);
+        let yv = if p.support.is_real(st.x, st.y) {
+            y
+        } else {
+            p.support.visibility_point(st.x, st.y)
+        };
         // Sending nodes with a bit mask of types (bit 0: root φ).
         let mut senders: Vec<((u32, u32), u16)> = Vec::new();
         let add = |q: u32, node: u32, tau: u8, senders: &mut Vec<((u32, u32), u16)>| match senders
@@ -962,7 +964,8 @@ impl GlossySolution {
                 if !pq.support.is_real(xs.x, xs.y) {
                     continue;
                 }
-                let (x, nx) = pq.support.point_normal(xs.x, xs.y);
+                // One evaluation of a curved map gives the point, normal and frame.
+                let (x, nx, fx) = pq.point_frame(xs.x, xs.y);
                 let d = y - x;
                 let r2 = d.length_squared();
                 if !crate::positive(r2) {
@@ -974,7 +977,6 @@ impl GlossySolution {
                 if !(cx > 0.0 && cy > 0.0) {
                     continue;
                 }
-                let fx = pq.frame(xs.x, xs.y);
                 let Some(ua) = self.config.directions.inverse(fx.to_local(dir)) else {
                     continue;
                 };

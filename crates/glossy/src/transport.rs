@@ -35,7 +35,7 @@ use rand_pcg::Pcg64;
 use wavelux_geometry::Ray;
 use wavelux_geometry::formfactor::area_form_factor;
 use wavelux_quadrature::{Corner, RuleNd, SquarePair, singular::square_pair_rule};
-use wavelux_support::Coverage;
+use wavelux_support::{Coverage, SupportMap};
 
 use crate::basis::{CHILDREN, HaarStep, NodeKey, TYPES};
 use crate::directions::DirectionKind;
@@ -151,6 +151,9 @@ pub struct Transport<'a> {
     vertex_rules: Vec<RuleNd>,
     /// Distance under which two corners coincide.
     tol: f64,
+    /// Bounding sphere of every patch (whole support): pairs of patches whose spheres
+    /// are far apart cannot touch, so their cell corners are never computed.
+    spheres: Vec<(DVec3, f64)>,
     /// Gauss–Legendre nodes and weights on `[0,1]` of the spatial rule.
     gx: Vec<f64>,
     gw: Vec<f64>,
@@ -169,6 +172,33 @@ const EDGES: [(usize, usize); 4] = [(0, 1), (1, 2), (2, 3), (3, 0)];
 type Q = [[[f64; 3]; CHILDREN]; CHILDREN];
 
 /// A receiver sample point with its frame and BRDF.
+/// Geometry of a sender point, shared by every receiver point of a link.
+struct SendPoint {
+    st: DVec2,
+    x: DVec3,
+    nx: DVec3,
+    frame: crate::ward::Frame,
+    real: bool,
+}
+
+impl SendPoint {
+    fn new(p: &crate::patch::Patch, st: DVec2) -> Self {
+        let real = p.support.is_real(st.x, st.y);
+        let (x, nx, frame) = if real {
+            p.point_frame(st.x, st.y)
+        } else {
+            (DVec3::ZERO, DVec3::Z, crate::ward::Frame::any(DVec3::Z))
+        };
+        Self {
+            st,
+            x,
+            nx,
+            frame,
+            real,
+        }
+    }
+}
+
 struct RecvPoint {
     #[allow(dead_code)]
     st: DVec2,
@@ -277,6 +307,11 @@ impl<'a> Transport<'a> {
             edge_rules,
             vertex_rules,
             tol: 1e-9 * scene.diagonal,
+            spheres: scene
+                .patches
+                .iter()
+                .map(|p| p.support.bounding_sphere(0.0, 0.0, 1.0))
+                .collect(),
         })
     }
 
@@ -358,7 +393,19 @@ impl<'a> Transport<'a> {
                 ls[1] + hs2 * (cs >> 1) as f64,
             )
         });
-        let scs: [[DVec3; 4]; 4] = std::array::from_fn(|cs| corners(ps, s0s[cs], hs2));
+        // Cells of distinct patches touch only if the patches' spheres meet (a factor
+        // 2 of margin over the sampled spheres of curved maps).
+        let may_touch = send.patch != recv.patch && {
+            let ((ca, ra), (cb, rb)) = (self.spheres[send.patch], self.spheres[recv.patch]);
+            (ca - cb).length() <= 2.0 * (ra + rb) + self.tol
+        };
+        let scs: [[DVec3; 4]; 4] = std::array::from_fn(|cs| {
+            if may_touch {
+                corners(ps, s0s[cs], hs2)
+            } else {
+                [DVec3::ZERO; 4]
+            }
+        });
         // Gauss–Legendre points (n × n per child cell, weights per unit square).
         let gauss = |o: DVec2, h: f64| -> Vec<(DVec2, f64)> {
             (0..n * n)
@@ -373,6 +420,12 @@ impl<'a> Transport<'a> {
         };
         // Sender points per sender child: reused by every receiver point.
         let xs_pts: [Vec<(DVec2, f64)>; 4] = std::array::from_fn(|cs| gauss(s0s[cs], hs2));
+        let xs_geo: [Vec<SendPoint>; 4] = std::array::from_fn(|cs| {
+            xs_pts[cs]
+                .iter()
+                .map(|(xs, _)| SendPoint::new(ps, *xs))
+                .collect()
+        });
         let _ = inv;
         let reverse = self.sharp(send, recv);
         for cr in 0..4 {
@@ -380,12 +433,16 @@ impl<'a> Transport<'a> {
                 lr[0] + hr2 * (cr & 1) as f64,
                 lr[1] + hr2 * (cr >> 1) as f64,
             );
-            let rc = corners(pr, r0, hr2);
+            let rc = if may_touch {
+                corners(pr, r0, hr2)
+            } else {
+                [DVec3::ZERO; 4]
+            };
             let rules: [Option<&RuleNd>; 4] = std::array::from_fn(|cs| {
-                if send.patch == recv.patch {
-                    None
-                } else {
+                if may_touch {
                     self.touching(&rc, &scs[cs])
+                } else {
+                    None
                 }
             });
             let ys = gauss(r0, hr2);
@@ -412,11 +469,11 @@ impl<'a> Transport<'a> {
                         Some(a) => a,
                         None => &mut acc,
                     };
-                    for (xs, wx) in &xs_pts[cs] {
+                    for ((xs, wx), sp) in xs_pts[cs].iter().zip(&xs_geo[cs]) {
                         // Area density of the point (its weight's inverse).
                         let dens = 1.0 / (hs2 * hs2 * wx * ps.support.jacobian(xs.x, xs.y));
                         self.pair(
-                            send, recv, &ry, *xs, w_y, dens, !reverse, cs, cr, &mut rng, target,
+                            send, recv, &ry, sp, w_y, dens, !reverse, cs, cr, &mut rng, target,
                         );
                     }
                 }
@@ -446,7 +503,7 @@ impl<'a> Transport<'a> {
                         send,
                         recv,
                         &ry,
-                        xs,
+                        &SendPoint::new(ps, xs),
                         hr2 * hr2,
                         dens,
                         true,
@@ -483,6 +540,17 @@ impl<'a> Transport<'a> {
         ys: &[(DVec2, f64)],
         xs: &[(DVec2, f64)],
     ) -> Option<f64> {
+        // Only planar polygons have a contour form factor (`cell_polygon`): decide that
+        // before the spheres, which cost curved maps nine evaluations each.
+        let polygon = |p: &crate::patch::Patch| {
+            matches!(
+                p.support.map,
+                SupportMap::Parallelogram { .. } | SupportMap::Triangle { .. }
+            )
+        };
+        if !(polygon(pr) && polygon(ps)) {
+            return None;
+        }
         let (cr, rr) = pr.support.bounding_sphere(r0.x, r0.y, hr);
         let (cs, rs) = ps.support.bounding_sphere(s0.x, s0.y, hs);
         if (cr - cs).length() >= NEAR_FIELD * (rr + rs) {
@@ -515,7 +583,7 @@ impl<'a> Transport<'a> {
     /// Geometry and material of a receiver point.
     fn receiver_point(&self, recv: End, yr: DVec2) -> Option<RecvPoint> {
         let pr = &self.scene.patches[recv.patch];
-        let (y, ny) = pr.support.point_normal(yr.x, yr.y);
+        let (y, ny, frame) = pr.point_frame(yr.x, yr.y);
         if !y.is_finite() {
             return None;
         }
@@ -523,8 +591,12 @@ impl<'a> Transport<'a> {
             st: yr,
             y,
             ny,
-            yv: pr.support.visibility_point(yr.x, yr.y),
-            frame: pr.frame(yr.x, yr.y),
+            yv: if pr.support.is_real(yr.x, yr.y) {
+                y
+            } else {
+                pr.support.visibility_point(yr.x, yr.y)
+            },
+            frame,
             brdf: self.scene.brdf_at(recv.patch, yr.x, yr.y),
         })
     }
@@ -591,14 +663,14 @@ impl<'a> Transport<'a> {
                 if rules[cs].is_some() {
                     continue;
                 }
-                let (x, nxv) = ps.support.point_normal(xs.x, xs.y);
+                let (x, nxv, fx) = ps.point_frame(xs.x, xs.y);
                 let d = ry.y - x;
                 let r2 = d.length_squared();
                 if !crate::positive(r2) {
                     continue;
                 }
                 let wxy = d / r2.sqrt();
-                let Some(ks_ang) = self.sender_cell(send, xs, wxy) else {
+                let Some(ks_ang) = self.sender_cell(send, &fx, wxy) else {
                     continue;
                 };
                 let ks = cs | (ks_ang << 2);
@@ -644,11 +716,10 @@ impl<'a> Transport<'a> {
         spacing > SHARP * lobe.alpha_x.min(lobe.alpha_y)
     }
 
-    /// The sender's direction child of `ω_xy` at `xs`, `None` outside its direction cell
+    /// The sender's direction child of `ω_xy` in the sender's `frame`, `None` outside its direction cell
     /// or behind it.
-    fn sender_cell(&self, send: End, xs: DVec2, wxy: DVec3) -> Option<usize> {
-        let ps = &self.scene.patches[send.patch];
-        let ls = ps.frame(xs.x, xs.y).to_local(wxy);
+    fn sender_cell(&self, send: End, frame: &crate::ward::Frame, wxy: DVec3) -> Option<usize> {
+        let ls = frame.to_local(wxy);
         if !crate::positive(ls.z) {
             return None;
         }
@@ -669,7 +740,7 @@ impl<'a> Transport<'a> {
         send: End,
         recv: End,
         ry: &RecvPoint,
-        xs: DVec2,
+        sp: &SendPoint,
         w_y: f64,
         dx: f64,
         specular: bool,
@@ -680,10 +751,10 @@ impl<'a> Transport<'a> {
     ) {
         let ps = &self.scene.patches[send.patch];
         let pr = &self.scene.patches[recv.patch];
-        if !ps.support.is_real(xs.x, xs.y) {
+        if !sp.real {
             return;
         }
-        let (x, nx) = ps.support.point_normal(xs.x, xs.y);
+        let (xs, x, nx) = (sp.st, sp.x, sp.nx);
         let d = ry.y - x;
         let r2 = d.length_squared();
         if !crate::positive(r2) {
@@ -694,10 +765,10 @@ impl<'a> Transport<'a> {
             acc.kmin = acc.kmin.min(0.0);
             acc.kmax = acc.kmax.max(0.0);
         };
-        let Some(ks_ang) = self.sender_cell(send, xs, wxy) else {
+        let Some(ks_ang) = self.sender_cell(send, &sp.frame, wxy) else {
             // Outside the sender's direction cell: b_s = 0 (skipped, no ray); behind
             // the sender: a zero kernel sample.
-            if !crate::positive(ps.frame(xs.x, xs.y).to_local(wxy).z) {
+            if !crate::positive(sp.frame.to_local(wxy).z) {
                 zero(acc);
             }
             return;
