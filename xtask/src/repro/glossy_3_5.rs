@@ -27,12 +27,12 @@ use wavelux::glossy::{
 };
 
 /// One run's curve: (links, cumulative samples, cumulative seconds, error) per round.
-struct Curve {
-    points: Vec<[f64; 4]>,
+pub(super) struct Curve {
+    pub(super) points: Vec<[f64; 4]>,
 }
 
 impl Curve {
-    fn best(&self) -> f64 {
+    pub(super) fn best(&self) -> f64 {
         self.points
             .iter()
             .map(|p| p[3])
@@ -41,7 +41,7 @@ impl Curve {
 
     /// Column `col` (0 links, 1 samples, 2 seconds) when the error first reaches `e`,
     /// interpolated log–log between the bracketing rounds.
-    fn at_error(&self, e: f64, col: usize) -> f64 {
+    pub(super) fn at_error(&self, e: f64, col: usize) -> f64 {
         let p = &self.points;
         let Some(i) = p.iter().position(|q| q[3] <= e) else {
             return f64::NAN;

@@ -17,6 +17,7 @@ mod global_cube_mc;
 mod global_cube_table1;
 mod glossy_3_5;
 mod glossy_fig13;
+mod glossy_fig16;
 mod glossy_ward;
 mod meshless_common;
 mod meshless_fig3;
@@ -128,6 +129,13 @@ pub fn all() -> Vec<Reproduction> {
             seed_file: "003_fdfe6675de3bf6ad.txt",
             title: "Three patches: glossy radiance convergence; patch 3 without importance, with it, with gather",
             run: glossy_fig13::run,
+        },
+        Reproduction {
+            id: "glossy-fig16",
+            source: "Glossy §7.2, Fig. 16",
+            seed_file: "003_fdfe6675de3bf6ad.txt",
+            title: "Maze with a Bézier teapot, spotlights and a window: counts, importance at equal image error, final gathers",
+            run: glossy_fig16::run,
         },
         Reproduction {
             id: "glossy-3.5",
