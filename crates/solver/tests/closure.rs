@@ -9,6 +9,7 @@
 
 use glam::DVec3;
 use proptest::prelude::*;
+use wavelux_geometry::formfactor::point_to_polygon;
 use wavelux_scene::builtin::{cornell_box, white_furnace};
 use wavelux_scene::{Material, Rgb, Scene, Shape, Sidedness, Surface};
 use wavelux_solver::{BasisKind, LinearMethod, Solution, SolverConfig, solve};
@@ -357,5 +358,82 @@ fn an_emitter_facing_black_surfaces_keeps_its_emission_exactly() {
             basis.name()
         );
         assert!(worst < 1e-9, "{} level {level}: {worst}", basis.name());
+    }
+}
+
+/// The closure acts on the reflected radiosity `B − E` only; the emitted part of a
+/// leaf's defect reaches it from the link's emitter (crate::closure). A lamp
+/// (`E = 50`) lit by a small black emitter (`E = 1`) above it reflects
+/// `ρ E_c F(i → c)`: each of its leaves gets that within the second-order term
+/// `ρ δ_i (B_i − E_i)` (projection defect times its own reflected radiosity). Charging
+/// the whole defect against the leaf's own `B` gave `ρ δ_i E_lamp`, 50 times the
+/// lamp's light: the Cornell box light's reflected radiosity came out +195 % (issue
+/// 12).
+#[test]
+fn a_lamp_lit_by_another_emitter_reflects_only_that_light() {
+    let (e_lamp, e_c, rho) = (50.0, 1.0, 0.05);
+    let mut scene = Scene::new("lamp under a glowing black tile");
+    let lamp = scene.add_material(Material::lambertian(
+        "lamp",
+        Rgb::grey(rho),
+        Rgb::grey(e_lamp),
+    ));
+    let glow = scene.add_material(Material::lambertian("glow", Rgb::grey(0.0), Rgb::grey(e_c)));
+    scene.add_surface(Surface {
+        name: "lamp".into(),
+        shape: Shape::parallelogram(DVec3::ZERO, DVec3::X, DVec3::Y),
+        material: lamp,
+        sides: Sidedness::OneSided,
+    });
+    let o = DVec3::new(0.3, 0.4, 0.2);
+    let (u, v) = (DVec3::new(0.0, 0.25, 0.0), DVec3::new(0.25, 0.0, 0.0));
+    scene.add_surface(Surface {
+        name: "tile".into(),
+        shape: Shape::parallelogram(o, u, v),
+        material: glow,
+        sides: Sidedness::OneSided,
+    });
+    let tile = [o, o + u, o + u + v, o + v];
+    let gl = wavelux_quadrature::GaussLegendre::new(10).unwrap().unit();
+    for (basis, level) in [(BasisKind::Haar, 4u8), (BasisKind::Multiwavelet(3), 3)] {
+        let sol = solve(&scene, &config(basis, level, GMRES)).unwrap();
+        let sys = sol.system();
+        let h = sys.hierarchy();
+        let n = h.n();
+        let coef = sol.leaf_coefficients(0);
+        let mut worst: f64 = 0.0;
+        let mut lamp_leaves = 0;
+        for (l, &i) in h.leaves().iter().enumerate() {
+            let k = h.keys()[i as usize];
+            if k.patch != 0 {
+                continue;
+            }
+            lamp_leaves += 1;
+            let g = k.region();
+            let area = g.h * g.h;
+            let mean = coef[l * n] / area.sqrt() - e_lamp;
+            // Independent reference: Lambert's point form factor to the tile on a
+            // 10×10 Gauss rule over the leaf.
+            let mut f = 0.0;
+            for (x, wx) in gl.0.iter().zip(&gl.1) {
+                for (y, wy) in gl.0.iter().zip(&gl.1) {
+                    let p = DVec3::new(g.s0 + g.h * x, g.t0 + g.h * y, 0.0);
+                    f += wx * wy * point_to_polygon(p, DVec3::Z, &tile).unwrap();
+                }
+            }
+            let exact = rho * e_c * f;
+            worst = worst.max((mean - exact).abs() / exact);
+        }
+        println!(
+            "{} level {level}: worst leaf reflected radiosity error {worst:.3e} over {lamp_leaves} lamp leaves, closure links {}",
+            basis.name(),
+            sol.stats.closure_links
+        );
+        assert!(
+            lamp_leaves > 1 && sol.stats.closure_links > 0,
+            "{}",
+            basis.name()
+        );
+        assert!(worst < 2e-3, "{} level {level}: {worst:.3e}", basis.name());
     }
 }
