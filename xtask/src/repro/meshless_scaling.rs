@@ -19,7 +19,7 @@ use crate::plot::{Axis, Series, Style, xy_plot};
 use crate::report::{Figure, Report, Row, Table, Tolerance};
 use crate::reproduce::Ctx;
 use wavelux::meshless::{
-    CpuBackend, MeshlessConfig, Precomputed, Relighter, SceneSurfaces, SurfaceQuery,
+    CpuBackend, LinkThreshold, MeshlessConfig, Precomputed, Relighter, SceneSurfaces, SurfaceQuery,
 };
 use wavelux::param::glam::DVec3;
 use wavelux::render::PathTracer;
@@ -111,6 +111,7 @@ fn config(s: &Sizes, r: f64, eps: f64) -> MeshlessConfig {
         r_coarse: Some(r),
         gather_rays: s.gather_rays,
         epsilon: eps,
+        threshold: LinkThreshold::Uniform,
         bounces: BOUNCES,
         bounce_epsilon: Some(eps / 100.0),
         ..MeshlessConfig::default()
@@ -445,6 +446,42 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             format!("R_coarse = {} m, ε = 0.005, seed 2", s.r_eps),
             &run,
         ));
+    }
+    // Which links the threshold truncates: the same run with the threshold scaled by
+    // the sender's support area (ε/4^l on sender level l), and with level-0 senders
+    // only. If the finer senders' links carried the lost energy, the first would
+    // recover it and the second would lose more.
+    for (label, cfg) in [
+        (
+            "ε = 0.005 scaled with the sender's area (ε/4^l)",
+            MeshlessConfig {
+                threshold: LinkThreshold::SenderArea,
+                ..config(s, s.r_eps, 0.005)
+            },
+        ),
+        (
+            "ε = 0.005, level-0 senders only",
+            MeshlessConfig {
+                sender_levels: 1,
+                ..config(s, s.r_eps, 0.005)
+            },
+        ),
+    ] {
+        let (run, _) = run_one(&scene, &query, &cfg, s, &points, &reference)?;
+        r.rows.push(
+            Row::new(
+                format!("indirect relative L1 vs path tracer, {label}"),
+                None,
+                run.l1,
+                "",
+                Tolerance::Info,
+            )
+            .comment(format!(
+                "energy {:.3}, {} links in T (uniform ε = 0.005, two sender levels: {:.3}, {})",
+                run.energy, run.t_links, eps_runs[4].energy, eps_runs[4].t_links
+            )),
+        );
+        table.push(run_row(format!("R_coarse = {} m, {label}", s.r_eps), &run));
     }
     let (lo, hi) = query.bounds();
     for (band, a, b) in EDGE_BANDS {
