@@ -73,9 +73,8 @@ pub struct Closure {
 }
 
 /// The closure of the links `links` compiled into `h` (see the module docs). Links
-/// without exact pieces (masked curved supports, trims with arcs crossing a node) and
-/// links into curved receivers (whose closure link would coincide with a curved node's
-/// self link) contribute no defect.
+/// whose pieces are not planar polygons (curved, disk, partial virtual pieces)
+/// contribute no defect.
 pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) -> Closure {
     let n = h.n;
     let basis = ctx.basis();
@@ -87,11 +86,6 @@ pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) ->
             let (Some(ri), Some(_)) = (node_of(&l.r), node_of(&l.e)) else {
                 return out;
             };
-            // Curved receivers keep their links' exact blocks but get no closure
-            // link: it would coincide with a curved node's own self link.
-            if !ctx.patches[l.r.patch as usize].support.is_planar() {
-                return out;
-            }
             let (rr, er) = (l.r.region(), l.e.region());
             let Some((pr, pe)) = ctx.exact_pieces(&rr, &er) else {
                 return out;

@@ -13,9 +13,7 @@
 use std::time::Instant;
 
 use wavelux::scene::builtin::white_furnace;
-use wavelux::scene::{
-    GltfOptions, Material, Rgb, Scene, fixtures, load_gltf_slice, parse_native, to_glb,
-};
+use wavelux::scene::{Material, Rgb, Scene, parse_native};
 use wavelux::solver::{BasisKind, LinearMethod, SolverConfig, solve};
 use wavelux_tests::catalogue::{self, Case, default_settings};
 
@@ -59,35 +57,6 @@ fn run_case(c: &Case, cfg: &SolverConfig) -> anyhow::Result<Vec<Measured>> {
             })
         })
         .collect()
-}
-
-/// Howell's C-41 as a user's glTF file brings it: two unit disks 1 apart, each a polar
-/// grid of 128 sectors × 8 rings (2,048 triangles, 128 degenerate at the centre),
-/// written to GLB and loaded back with the default mesh grouping, which makes each grid
-/// one exact disk (`wavelux_scene::group`, `wavelux_scene::fit`). The time includes the
-/// load and grouping (issue 11 §3: "a 2,048-triangle disk costs what a disk costs").
-fn mesh_disks(cfg: &SolverConfig) -> anyhow::Result<Measured> {
-    let file = "coaxial-disks-2048.glb";
-    let glb = to_glb(&fixtures::coaxial_disks(1.0, 1.0, 128, 8), file)?;
-    let t0 = Instant::now();
-    let scene = load_gltf_slice(&glb, file, None, &GltfOptions::default())?;
-    let sol = solve(&scene, cfg)?;
-    let seconds = t0.elapsed().as_secs_f64();
-    let i = scene
-        .surfaces
-        .iter()
-        .position(|s| s.name == "receiver")
-        .ok_or_else(|| anyhow::anyhow!("{file}: no surface receiver"))?;
-    Ok(Measured {
-        family: "C-41",
-        case: "r1 = 1, r2 = 1, h = 1 from glTF, 2,048-triangle ring meshes grouped on load".into(),
-        receiver: "receiver".into(),
-        exact: 0.5 * fixtures::coaxial_disk_form_factor(1.0, 1.0, 1.0),
-        ours: catalogue::lit_average(&sol, i),
-        seconds,
-        links: sol.stats.links,
-        tol: catalogue::TOL_REGULAR,
-    })
 }
 
 /// A furnace configuration and its exact area-averaged radiosity.
@@ -161,9 +130,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
                  default settings (M3, ε = 1e-2, level 2, GMRES); ours is the receiver's \
                  real-area average radiosity, exact is ρ F E from the closed form (Lambert's \
                  formula or B-3/B-13 integrated over the receiver by a graded Gauss rule where \
-                 Howell gives a point formula). One C-41 row comes from a glTF file whose \
-                 disks are 2,048-triangle ring meshes, grouped on load (its time includes \
-                 the load). Furnaces: the unit cube (six faces) and a \
+                 Howell gives a point formula). Furnaces: the unit cube (six faces) and a \
                  closed analytic sphere, uniform emission or one emitting face; ours is the \
                  area-weighted mean radiosity (and its largest pointwise deviation where B is \
                  uniform)."
@@ -183,7 +150,6 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         }
         measured.extend(run_case(&c, &cfg)?);
     }
-    measured.push(mesh_disks(&cfg)?);
     for m in &measured {
         let err = (m.ours - m.exact) / m.exact;
         rows.push(vec![
