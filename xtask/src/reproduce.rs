@@ -147,8 +147,10 @@ fn run_with(all: &[Reproduction], args: &Args, root: &Path) -> anyhow::Result<()
             fig_dir,
         };
         let start = Instant::now();
-        let report = (r.run)(&ctx).with_context(|| format!("reproduction {} failed", r.id))?;
+        let mut report = (r.run)(&ctx).with_context(|| format!("reproduction {} failed", r.id))?;
         let wall = start.elapsed().as_secs_f64();
+        // Times depend on the build: every report says which one produced it.
+        report.param("xtask build", BUILD_PROFILE);
 
         let json = JsonReport {
             id: r.id,
@@ -379,6 +381,13 @@ struct IndexEntry {
     wall_seconds: f64,
     rows: Vec<IndexRow>,
 }
+
+/// The build that runs the reproductions, as the reports state it.
+const BUILD_PROFILE: &str = if cfg!(debug_assertions) {
+    "dev profile (opt-level 1, debug assertions): times are not release times"
+} else {
+    "release"
+};
 
 fn write_index(all: &[Reproduction], doc_dir: &Path, open: &OpenFailures) -> anyhow::Result<()> {
     let mut s = String::from(

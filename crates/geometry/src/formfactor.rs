@@ -318,6 +318,25 @@ fn edge_pair(outer: &Outer, p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
     cosang * total
 }
 
+/// `∫∫ ln|p − q| dp·dq` over the segments `p0 → p1` and `q0 → q1` in closed form (the
+/// inner integral analytic, the outer one by Gauss rules graded towards the other
+/// segment): the edge-pair term of [`area_form_factor`]'s contour form, finite and
+/// exact for touching, overlapping and collinear segments (m² ln m).
+///
+/// # Errors
+/// Non-finite end points, or the Gauss–Legendre rules unavailable.
+pub fn segment_pair_log_integral(
+    p0: DVec3,
+    p1: DVec3,
+    q0: DVec3,
+    q1: DVec3,
+) -> Result<f64, GeometryError> {
+    if ![p0, p1, q0, q1].iter().all(|v| v.is_finite()) {
+        return Err(GeometryError::Degenerate("non-finite segment end point"));
+    }
+    Ok(edge_pair(Outer::get()?, p0, p1, q0, q1))
+}
+
 /// Distance from the point `x` to the segment `ab` (m).
 pub fn point_segment_distance(x: DVec3, a: DVec3, b: DVec3) -> f64 {
     let d = b - a;

@@ -12,6 +12,7 @@
 //! device loss is recorded by the device-lost callback. Both turn into
 //! [`GpuError::Device`] at the next check.
 
+use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
 use wgpu::util::DeviceExt;
@@ -91,6 +92,10 @@ pub struct Gpu {
     summary: AdapterSummary,
     limits: wgpu::Limits,
     errors: Arc<Mutex<Vec<String>>>,
+    /// Compute pipelines built so far, by label and entry point (each label names one
+    /// WGSL source of this crate): a shader is compiled once per device, however many
+    /// kernels objects use it (about a second per pipeline on lavapipe).
+    pipelines: Mutex<HashMap<(String, String), wgpu::ComputePipeline>>,
 }
 
 impl Gpu {
@@ -161,6 +166,7 @@ impl Gpu {
             summary,
             limits,
             errors,
+            pipelines: Mutex::new(HashMap::new()),
         }))
     }
 
@@ -249,8 +255,26 @@ impl Gpu {
         })
     }
 
-    /// A compute pipeline for `entry` of the WGSL `source` (auto layout).
+    /// A compute pipeline for `entry` of the WGSL `source` (auto layout), built once per
+    /// device and `(label, entry)`: `label` must name `source` uniquely.
     pub(crate) fn pipeline(&self, label: &str, source: &str, entry: &str) -> wgpu::ComputePipeline {
+        let key = (label.to_owned(), entry.to_owned());
+        if let Some(p) = self
+            .pipelines
+            .lock()
+            .ok()
+            .and_then(|m| m.get(&key).cloned())
+        {
+            return p;
+        }
+        let p = self.build_pipeline(label, source, entry);
+        if let Ok(mut m) = self.pipelines.lock() {
+            m.entry(key).or_insert_with(|| p.clone());
+        }
+        p
+    }
+
+    fn build_pipeline(&self, label: &str, source: &str, entry: &str) -> wgpu::ComputePipeline {
         let module = self
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {

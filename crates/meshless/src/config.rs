@@ -40,6 +40,18 @@ pub struct MeshlessConfig {
     /// this field existed were built with [`LinkThreshold::Uniform`]).
     #[serde(default = "LinkThreshold::legacy")]
     pub threshold: LinkThreshold,
+    /// Largest share of a level-0 receiver's gathered link mass that the Fig. 5
+    /// criteria may drop (ours; `None`: the seed's criteria alone). The mass of
+    /// receiver `i` is `M_i = Σ_j ‖T'_ij‖` over its gathered row (eq. (16)); when the
+    /// links the criteria drop sum to more than `share · M_i`, the largest of them are
+    /// kept back until the dropped rest is at most `share · M_i`. A uniform `ε` drops
+    /// the many small links of a fine level 0 (each `∝ R_coarse²`), which together
+    /// carry much of the irradiance, and a dropped level-0 link is never refined; this
+    /// bound is scale-free. Finer receivers keep the seed's criteria (applied to them
+    /// too, the bound keeps eq. (17)'s small differences and gather noise: 5× the
+    /// links on the Cornell box). In `[0, 1]`.
+    #[serde(default)]
+    pub max_dropped_share: Option<f64>,
     /// Threshold of the bounce products: links with `‖S_ij‖ < bounce_epsilon` are
     /// dropped after each product `S_{b+1} = T₀·Q·S_b` (ours; `None`: `ε/10`). The seed
     /// drops at `ε`; with `ε = 0.005` that loses ~25 % of the Cornell box's indirect
@@ -77,6 +89,7 @@ impl Default for MeshlessConfig {
             gather_rays: 256,
             epsilon: 0.025,
             threshold: LinkThreshold::Uniform,
+            max_dropped_share: None,
             bounce_epsilon: None,
             bounces: 4,
             seed: 0,
@@ -207,6 +220,11 @@ impl MeshlessConfig {
         if self.epsilon < 0.0 {
             return bad("epsilon", format!("{} must be >= 0", self.epsilon));
         }
+        if let Some(d) = self.max_dropped_share
+            && !(0.0..=1.0).contains(&d)
+        {
+            return bad("max_dropped_share", format!("{d} not in [0, 1]"));
+        }
         if self.bounce_epsilon.is_some_and(|b| b < 0.0) {
             return bad("bounce_epsilon", "must be >= 0".into());
         }
@@ -317,6 +335,20 @@ mod tests {
                 "epsilon",
                 MeshlessConfig {
                     epsilon: f64::NAN,
+                    ..Default::default()
+                },
+            ),
+            (
+                "max_dropped_share",
+                MeshlessConfig {
+                    max_dropped_share: Some(1.5),
+                    ..Default::default()
+                },
+            ),
+            (
+                "max_dropped_share",
+                MeshlessConfig {
+                    max_dropped_share: Some(f64::NAN),
                     ..Default::default()
                 },
             ),

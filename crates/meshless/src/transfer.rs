@@ -18,6 +18,10 @@
 //! the magnitude test alone, ours); a receiver that keeps any link queues its children.
 //! With [`crate::LinkThreshold::SenderArea`] (ours) both tests of a
 //! level-`l` sender use `ε/4^l`, the threshold scaled with the sender's support area.
+//! With [`MeshlessConfig::max_dropped_share`] `= Some(δ)` (ours) a level-0 receiver
+//! whose dropped links sum to more than `δ·Σ_j ‖T'_ij‖` keeps back the largest of them
+//! until the dropped rest is within that bound; finer receivers then refine the kept
+//! links by eq. (17) under the seed's criteria.
 //! Receivers of one level are independent and run in parallel; their rows are written
 //! in receiver order, so `T` does not depend on the thread count.
 
@@ -189,11 +193,29 @@ fn subtract_parents(basis: &Basis, rows: &Rows, i: usize, s: &mut Scratch) {
     s.anc = anc;
 }
 
+/// The mass `M_i = Σ_j ‖T'_ij‖` of the gathered row in the scratch.
+fn row_mass(s: &Scratch) -> f64 {
+    s.touched
+        .iter()
+        .map(|&j| link_norm(&s.acc[j as usize]))
+        .sum()
+}
+
 /// Applies the Fig. 5 criteria to the scratch row with the threshold `eps[l]` of a
-/// level-`l` sender; returns the kept links (sorted) and the number computed.
-fn select(basis: &Basis, eps: &[f64], s: &mut Scratch) -> (Vec<(u32, Link)>, usize) {
+/// level-`l` sender, then, with `bound = Some(share · M_i)`, keeps back the largest
+/// dropped links until the dropped rest sums to at most the bound
+/// ([`MeshlessConfig::max_dropped_share`]); returns the kept links (sorted) and the
+/// number computed.
+fn select(
+    basis: &Basis,
+    eps: &[f64],
+    bound: Option<f64>,
+    s: &mut Scratch,
+) -> (Vec<(u32, Link)>, usize) {
     s.touched.sort_unstable();
     let mut kept = Vec::new();
+    let mut dropped = Vec::new();
+    let mut dropped_mass = 0.0;
     let mut computed = 0;
     for &j in &s.touched {
         let t = &s.acc[j as usize];
@@ -203,21 +225,34 @@ fn select(basis: &Basis, eps: &[f64], s: &mut Scratch) -> (Vec<(u32, Link)>, usi
         }
         let level = basis.level_of(j as usize);
         let epsilon = eps[level];
-        if !(norm > epsilon) {
-            continue;
-        }
-        let keep = if level == 0 {
-            true
-        } else {
-            let nb = basis.neighbours(j as usize);
-            nb.is_empty()
-                || nb
-                    .iter()
-                    .any(|&k| link_diff_norm(t, &s.acc[k as usize]) > epsilon)
-        };
+        let keep = norm > epsilon
+            && (level == 0 || {
+                let nb = basis.neighbours(j as usize);
+                nb.is_empty()
+                    || nb
+                        .iter()
+                        .any(|&k| link_diff_norm(t, &s.acc[k as usize]) > epsilon)
+            });
         if keep {
             kept.push((j, *t));
+        } else if bound.is_some() && norm > 0.0 {
+            dropped.push((norm, j));
+            dropped_mass += norm;
         }
+    }
+    if let Some(bound) = bound
+        && dropped_mass > bound
+    {
+        // Largest first; equal norms in sender order (deterministic).
+        dropped.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        for (norm, j) in dropped {
+            if dropped_mass <= bound {
+                break;
+            }
+            dropped_mass -= norm;
+            kept.push((j, s.acc[j as usize]));
+        }
+        kept.sort_unstable_by_key(|k| k.0);
     }
     (kept, computed)
 }
@@ -260,8 +295,12 @@ pub fn refine<Q: SurfaceQuery + ?Sized>(
                 || Scratch::new(senders),
                 |s, &i| {
                     let rays = gather(query, basis, config, i, s);
+                    let bound = config
+                        .max_dropped_share
+                        .filter(|_| l == 0)
+                        .map(|d| d * row_mass(s));
                     subtract_parents(basis, &rows, i, s);
-                    let (kept, computed) = select(basis, &eps, s);
+                    let (kept, computed) = select(basis, &eps, bound, s);
                     s.clear();
                     (i, kept, computed, rays)
                 },

@@ -275,6 +275,62 @@ fn sender_area_threshold_truncates_less() {
     assert!(da < du, "sender area {da} vs uniform {du}");
 }
 
+/// `max_dropped_share = δ`: every level-0 row keeps the gathered links unchanged and
+/// drops at most `δ` of its gathered mass, and no kept-back link could have been
+/// dropped within the bound (the largest are kept back first); `δ = 0` keeps every
+/// non-zero level-0 link; without it, `ε = 1` drops everything.
+#[test]
+fn dropped_share_bounds_each_row() {
+    let scene = white_furnace(0.0, 0.7).unwrap();
+    let cfg = |share| MeshlessConfig {
+        receiver_levels: 2,
+        sender_levels: 2,
+        r_coarse: Some(0.3 * FURNACE),
+        epsilon: 1.0,
+        max_dropped_share: share,
+        gather_rays: 16,
+        bounces: 1,
+        ..Default::default()
+    };
+    let q = SceneSurfaces::new(&scene).unwrap();
+    let pre = Precomputed::build(&scene, &cfg(None), &quiet).unwrap();
+    let b = &pre.basis;
+    assert_eq!(pre.t.nnz(), 0, "ε = 1 drops every link");
+    for share in [0.0, 0.2, 0.6] {
+        let c = cfg(Some(share));
+        let (t, _) = refine(&q, b, &c, &|_, _| {}).unwrap();
+        assert!(t.nnz() > 0);
+        for i in b.level_range(0) {
+            let row = gathered_row(&q, b, &c, i);
+            let mass: f64 = row.iter().map(|(_, l)| link_norm(l)).sum();
+            let mut dropped = 0.0;
+            let mut smallest_kept = f64::INFINITY;
+            for (j, l) in &row {
+                match t.get(i, *j as usize) {
+                    Some(k) => {
+                        assert_eq!(k, l, "row {i}, sender {j}: a level-0 link is T'");
+                        smallest_kept = smallest_kept.min(link_norm(l));
+                    }
+                    None => dropped += link_norm(l),
+                }
+            }
+            assert!(
+                dropped <= share * mass * (1.0 + 1e-12),
+                "row {i}: dropped {dropped} of {mass} (share {share})"
+            );
+            if share == 0.0 {
+                let nonzero = row.iter().filter(|(_, l)| link_norm(l) > 0.0).count();
+                assert_eq!(t.row(i).0.len(), nonzero, "row {i}");
+            } else if smallest_kept.is_finite() {
+                assert!(
+                    dropped + smallest_kept > share * mass * (1.0 - 1e-12),
+                    "row {i}: a link was kept back needlessly"
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn single_small_level_and_budgets() {
     let scene = white_furnace(0.0, 0.5).unwrap();

@@ -8,11 +8,17 @@
 //! the constant `M(1)` = patch area. Both integrals use composite Gauss–Legendre rules
 //! (4 panels × 10 points in t, 16 panels × 10 points in s) and are inverted by
 //! bracketed Newton; the point inverse is damped Gauss–Newton on the Bézier patch.
-//! Evaluation costs a few thousand `J` evaluations (tens of µs).
+//! The marginal is tabulated once per patch: `m` at the 160 Gauss nodes in s, kept as
+//! the degree-9 interpolant per panel (whose panel integrals are the composite rule's),
+//! so `M` and its inverse cost no `J` evaluation; the area element of the map is then
+//! `M(1)·m/m̃` (`m̃` the interpolant), constant to the interpolation error (≪ 1e-12
+//! relative on smooth patches). The conditional `K(s, ·)` is built once per evaluation
+//! (40 `J` values) and shared by the inverse in t and the tangents: an evaluation
+//! costs about a hundred `J` evaluations (a few µs).
 
 use crate::error::{ParamError, finite3};
 use crate::frame::{Aabb, SurfacePoint};
-use crate::numeric::{Cumulative, closest_point, panel};
+use crate::numeric::{SmoothCumulative, closest_point, panel, solve_increasing};
 use crate::surface::{ParamKind, Parametrization, SurfaceShape};
 use glam::{DVec2, DVec3};
 use std::sync::Arc;
@@ -41,9 +47,57 @@ fn bernstein(t: f64) -> ([f64; 4], [f64; 4], [f64; 4]) {
 #[derive(Debug, Clone)]
 pub struct BezierPatch {
     ctrl: [[DVec3; 4]; 4],
-    marginal: Arc<Cumulative>,
+    marginal: Arc<SmoothCumulative>,
     nodes: Arc<(Vec<f64>, Vec<f64>)>,
     kind: ParamKind,
+}
+
+/// The control net contracted along s at a fixed `s`: rows `Σ_i B_i(s) P_ij`,
+/// `Σ_i B′_i(s) P_ij` and `Σ_i B″_i(s) P_ij`, so that `J(s, ·)` and `∂J/∂s(s, ·)` cost
+/// a few vector products per `t` (the conditional integrals in t evaluate them tens of
+/// times per point).
+struct Row {
+    q: [DVec3; 4],
+    r: [DVec3; 4],
+    rr: [DVec3; 4],
+}
+
+impl Row {
+    /// `(P_s, P_t)` at `t`.
+    #[inline]
+    fn tangents(&self, t: f64) -> (DVec3, DVec3, [f64; 4], [f64; 4]) {
+        let (bt, dbt, _) = bernstein(t);
+        let mut ps = DVec3::ZERO;
+        let mut pt = DVec3::ZERO;
+        for j in 0..4 {
+            ps += self.r[j] * bt[j];
+            pt += self.q[j] * dbt[j];
+        }
+        (ps, pt, bt, dbt)
+    }
+
+    /// `J(s, t)`.
+    #[inline]
+    fn jac(&self, t: f64) -> f64 {
+        let (ps, pt, _, _) = self.tangents(t);
+        ps.cross(pt).length()
+    }
+
+    /// `(J, ∂J/∂s)` at `(s, t)`.
+    #[inline]
+    fn jac_ds(&self, t: f64) -> (f64, f64) {
+        let (ps, pt, bt, dbt) = self.tangents(t);
+        let mut pss = DVec3::ZERO;
+        let mut pst = DVec3::ZERO;
+        for j in 0..4 {
+            pss += self.rr[j] * bt[j];
+            pst += self.r[j] * dbt[j];
+        }
+        let n = ps.cross(pt);
+        let jv = n.length();
+        let dn = pss.cross(pt) + ps.cross(pst);
+        (jv, n.dot(dn) / jv)
+    }
 }
 
 /// Position and derivatives of the patch.
@@ -71,7 +125,7 @@ impl BezierPatch {
         let nodes = Arc::new(gl.unit());
         let mut me = Self {
             ctrl,
-            marginal: Arc::new(Cumulative::new(0.0, 1.0, 1, 1, |_| 1.0)),
+            marginal: Arc::new(SmoothCumulative::new(0.0, 1.0, 1, 1, |_| 1.0)),
             nodes,
             kind: ParamKind::EqualArea,
         };
@@ -85,7 +139,9 @@ impl BezierPatch {
                 }
             }
         }
-        me.marginal = Arc::new(Cumulative::new(0.0, 1.0, S_PANELS, ORDER, |s| me.m(s)));
+        me.marginal = Arc::new(SmoothCumulative::new(0.0, 1.0, S_PANELS, ORDER, |s| {
+            me.m(s)
+        }));
         Ok(me)
     }
     crate::map_kind_switch!(
@@ -127,21 +183,30 @@ impl BezierPatch {
     }
 
     fn jac(&self, s: f64, t: f64) -> f64 {
-        let d = self.derivs(s, t);
-        d.ps.cross(d.pt).length()
+        self.row(s).jac(t)
     }
 
-    /// (J, ∂J/∂s) at (s, t).
-    fn jac_ds(&self, s: f64, t: f64) -> (f64, f64) {
-        let d = self.derivs(s, t);
-        let n = d.ps.cross(d.pt);
-        let j = n.length();
-        let dn = d.pss.cross(d.pt) + d.ps.cross(d.pst);
-        (j, n.dot(dn) / j)
+    /// The net contracted along s at `s`.
+    fn row(&self, s: f64) -> Row {
+        let (bs, dbs, ddbs) = bernstein(s);
+        let mut row = Row {
+            q: [DVec3::ZERO; 4],
+            r: [DVec3::ZERO; 4],
+            rr: [DVec3::ZERO; 4],
+        };
+        for j in 0..4 {
+            for i in 0..4 {
+                let c = self.ctrl[i][j];
+                row.q[j] += c * bs[i];
+                row.r[j] += c * dbs[i];
+                row.rr[j] += c * ddbs[i];
+            }
+        }
+        row
     }
 
     /// Composite rule on the t-panels: (K(s, t), ∂K/∂s(s, t)).
-    fn k_and_ks(&self, s: f64, t: f64) -> (f64, f64) {
+    fn k_and_ks(&self, row: &Row, t: f64) -> (f64, f64) {
         let (x, w) = (&self.nodes.0, &self.nodes.1);
         let h = 1.0 / T_PANELS as f64;
         let (mut k, mut ks) = (0.0, 0.0);
@@ -153,7 +218,7 @@ impl BezierPatch {
             let b = (a + h).min(t);
             let len = b - a;
             for (xi, wi) in x.iter().zip(w) {
-                let (j, js) = self.jac_ds(s, a + len * xi);
+                let (j, js) = row.jac_ds(a + len * xi);
                 k += wi * len * j;
                 ks += wi * len * js;
             }
@@ -165,8 +230,9 @@ impl BezierPatch {
     fn m(&self, s: f64) -> f64 {
         let (x, w) = (&self.nodes.0, &self.nodes.1);
         let h = 1.0 / T_PANELS as f64;
+        let row = self.row(s);
         (0..T_PANELS)
-            .map(|p| panel(x, w, p as f64 * h, (p + 1) as f64 * h, |t| self.jac(s, t)))
+            .map(|p| panel(x, w, p as f64 * h, (p + 1) as f64 * h, |t| row.jac(t)))
             .sum()
     }
 
@@ -174,15 +240,39 @@ impl BezierPatch {
     pub fn natural_parameters(&self, uv: DVec2) -> DVec2 {
         match self.kind {
             ParamKind::Natural => uv,
-            ParamKind::EqualArea => {
-                let s = self
-                    .marginal
-                    .inverse(uv.x * self.marginal.total(), |s| self.m(s));
-                let cond = Cumulative::new(0.0, 1.0, T_PANELS, ORDER, |t| self.jac(s, t));
-                let t = cond.inverse(uv.y * cond.total(), |t| self.jac(s, t));
-                DVec2::new(s, t)
-            }
+            ParamKind::EqualArea => self.equal_area_to_natural(uv).0,
         }
+    }
+
+    /// Natural `(s, t)` of equal-area `uv` and `m(s)` (the conditional's total).
+    fn equal_area_to_natural(&self, uv: DVec2) -> (DVec2, f64) {
+        let s = self.marginal.inverse(uv.x * self.marginal.total());
+        let row = self.row(s);
+        let (x, w) = (&self.nodes.0, &self.nodes.1);
+        let h = 1.0 / T_PANELS as f64;
+        // K(s, ·) at the panel breaks, then the panel holding uv.y·m(s).
+        let mut breaks = [0.0; T_PANELS + 1];
+        for p in 0..T_PANELS {
+            let a = p as f64 * h;
+            breaks[p + 1] = breaks[p] + panel(x, w, a, a + h, |t| row.jac(t));
+        }
+        let m = breaks[T_PANELS];
+        let c = uv.y * m;
+        if c.is_nan() || !m.is_finite() {
+            return (DVec2::new(s, f64::NAN), m);
+        }
+        let c = c.clamp(0.0, m);
+        let k = (1..T_PANELS).take_while(|&p| breaks[p] <= c).count();
+        let (a, ca, cb) = (k as f64 * h, breaks[k], breaks[k + 1]);
+        let guess = if cb > ca {
+            a + h * (c - ca) / (cb - ca)
+        } else {
+            a
+        };
+        let t = solve_increasing(a, a + h, c, guess, |t| {
+            (ca + panel(x, w, a, t, |t| row.jac(t)), row.jac(t))
+        });
+        (DVec2::new(s, t), m)
     }
 }
 
@@ -199,15 +289,16 @@ impl Parametrization for BezierPatch {
                 }
             }
             ParamKind::EqualArea => {
-                let st = self.natural_parameters(uv);
+                let (st, m) = self.equal_area_to_natural(uv);
                 let (s, t) = (st.x, st.y);
                 let d = self.derivs(s, t);
                 let n = d.ps.cross(d.pt);
                 let j = n.length();
-                let m = self.m(s);
-                let (_, ks) = self.k_and_ks(s, t);
-                let (_, ms) = self.k_and_ks(s, 1.0);
-                let ds_du = self.marginal.total() / m;
+                let row = self.row(s);
+                let (_, ks) = self.k_and_ks(&row, t);
+                let (_, ms) = self.k_and_ks(&row, 1.0);
+                // u = M̃(s)/M̃(1) with M̃′ = m̃, the tabulated marginal.
+                let ds_du = self.marginal.total() / self.marginal.value(s).1;
                 let dt_du = (uv.y * ms - ks) * ds_du / j;
                 let dt_dv = m / j;
                 SurfacePoint {
@@ -224,8 +315,8 @@ impl Parametrization for BezierPatch {
         match self.kind {
             ParamKind::Natural => Some(st),
             ParamKind::EqualArea => {
-                let u = self.marginal.value(st.x, |s| self.m(s)) / self.marginal.total();
-                let (k, _) = self.k_and_ks(st.x, st.y.min(1.0));
+                let u = self.marginal.value(st.x).0 / self.marginal.total();
+                let (k, _) = self.k_and_ks(&self.row(st.x), st.y.min(1.0));
                 let k = if st.y > 1.0 {
                     // Beyond the patch edge: extend K linearly with the edge density.
                     k + (st.y - 1.0) * self.jac(st.x, 1.0)

@@ -1,19 +1,89 @@
-//! Built-in scenes constructed in code (no files): the Cornell box, Ziegler's
-//! "Unoccluded"/"Occluded" scenes (Ziegler §4.1.1, after Gortler et al. 1993), Ziegler's
-//! box scenes with and without the inner cube (Ziegler §4.2.1, Figs. 4.10–4.11) at the
-//! high and low reflectance tables, and a closed cube for white-furnace checks.
+//! Built-in scenes: the Cornell box, Ziegler's "Unoccluded"/"Occluded" scenes
+//! (Ziegler §4.1.1, after Gortler et al. 1993), Ziegler's box scenes with and without
+//! the inner cube (Ziegler §4.2.1, Figs. 4.10–4.11) at the high and low reflectance
+//! tables, and a closed cube for white-furnace checks.
 //!
-//! Every coordinate is documented here and in `docs/scene-format.md`. Ziegler's
-//! figures did not survive the text conversion, so the §4.1/§4.2 geometry is rebuilt
-//! from the text: the choices we made are marked "(ours)".
+//! These scenes are data: native-format files in `crates/scene/data/builtin/`
+//! ([`BUILTIN_FILES`], embedded at compile time) read by the same loader as a user's
+//! file ([`crate::native::parse_native`]); loading a file from that folder with
+//! `wavelux solve` gives the built-in scene. Only the parameters the paper varies (the
+//! §4.2.1 reflectance table, the furnace's `E` and `ρ`) are applied in code. The scene
+//! families with size parameters (VirtualMesh §6, meshless, volume, office) stay small
+//! builders in their own modules. Ziegler's figures did not survive the text
+//! conversion, so the §4.1/§4.2 geometry is rebuilt from the text: the choices we made
+//! are marked "(ours)" in the files and in `docs/scene-format.md`.
 
 use glam::{DVec2, DVec3};
 
-use crate::camera::Camera;
+use crate::LoadOptions;
 use crate::error::{BUILTIN_FILE, SceneError};
-use crate::material::{Material, Rgb};
+use crate::group::MeshGrouping;
+use crate::material::Rgb;
+use crate::native::parse_native_with;
 use crate::scene::{Scene, Sidedness, Surface};
 use crate::shape::{Loop, PlaneFrame, PolygonShape, Shape, TriangleMesh};
+
+/// The built-in scenes' native-format files (`crates/scene/data/builtin/`), embedded:
+/// `(file name, text)`.
+pub const BUILTIN_FILES: &[(&str, &str)] = &[
+    (
+        "cornell-box.toml",
+        include_str!("../data/builtin/cornell-box.toml"),
+    ),
+    (
+        "ziegler-unoccluded.toml",
+        include_str!("../data/builtin/ziegler-unoccluded.toml"),
+    ),
+    (
+        "ziegler-occluded.toml",
+        include_str!("../data/builtin/ziegler-occluded.toml"),
+    ),
+    (
+        "ziegler-box.toml",
+        include_str!("../data/builtin/ziegler-box.toml"),
+    ),
+    (
+        "ziegler-box-cube.toml",
+        include_str!("../data/builtin/ziegler-box-cube.toml"),
+    ),
+    (
+        "white-furnace.toml",
+        include_str!("../data/builtin/white-furnace.toml"),
+    ),
+];
+
+/// Parses the embedded built-in file `file` (one of [`BUILTIN_FILES`]) with the native
+/// loader, meshes kept as given ([`MeshGrouping::Triangles`]: a built-in mesh is one
+/// surface, its quads merged into parallelograms where exact); errors name it
+/// `builtin:<file>`. `wavelux solve <file> --mesh-grouping triangles` loads the same
+/// scene from `crates/scene/data/builtin/`.
+///
+/// # Errors
+/// [`SceneError::Io`] for a name not in [`BUILTIN_FILES`]; otherwise the loader's
+/// errors (none for the shipped files: the scene crate's tests load every one).
+pub fn load_builtin_file(file: &str) -> Result<Scene, SceneError> {
+    let label = format!("builtin:{file}");
+    let (_, text) = BUILTIN_FILES
+        .iter()
+        .find(|(name, _)| *name == file)
+        .ok_or_else(|| SceneError::Io {
+            file: label.clone(),
+            message: "no such built-in file".into(),
+        })?;
+    let options = LoadOptions {
+        grouping: MeshGrouping::Triangles,
+    };
+    parse_native_with(text, &label, None, &options)
+}
+
+/// An embedded file that the tests load: failing here is a defect of this crate's
+/// data, not of a user's input.
+fn embedded(file: &str) -> Scene {
+    match load_builtin_file(file) {
+        Ok(s) => s,
+        Err(e) => panic!("built-in scene file {file} does not load: {e}"),
+    }
+}
 
 pub(crate) fn one_sided(scene: &mut Scene, name: &str, shape: Shape, material: usize) {
     scene.add_surface(Surface {
@@ -65,7 +135,9 @@ pub(crate) const MM: f64 = 1e-3;
 /// Graphics, "Cornell Box Data", <https://www.graphics.cornell.edu/online/box/data.html>),
 /// in millimetres, each quad counter-clockwise seen from its front (inside the box for
 /// walls, outside for blocks). The ceiling (556 × 559.2 at `y = 548.8`) and the light
-/// are built separately (see [`cornell_box`]).
+/// are built separately (see [`cornell_box`]). [`cornell_box`] reads the same numbers
+/// in metres from `cornell-box.toml`; these constants serve the one-surface-per-face
+/// variant [`crate::fixtures::cornell_faces`], and a test checks that they agree.
 pub(crate) const CORNELL_FLOOR: [[f64; 3]; 4] = [
     [552.8, 0.0, 0.0],
     [0.0, 0.0, 0.0],
@@ -174,7 +246,8 @@ pub const CORNELL_LIGHT_RADIANCE: Rgb = Rgb::new(17.0, 12.0, 4.0);
 /// Light's own diffuse reflectance (same source).
 pub const CORNELL_LIGHT_REFLECTANCE: Rgb = Rgb::grey(0.78);
 
-/// The Cornell box in metres (measured data, see the constants' source): floor, back,
+/// The Cornell box in metres, loaded from `data/builtin/cornell-box.toml` (measured
+/// data, see the constants' source): floor, back,
 /// left (red) and right (green) walls and the two blocks as triangle-pair meshes (the
 /// measured quads are not all exact parallelograms; those that are merge into one
 /// parallelogram each), the ceiling as a 556 × 559.2 mm polygon with a hole where the
@@ -183,70 +256,7 @@ pub const CORNELL_LIGHT_REFLECTANCE: Rgb = Rgb::grey(0.78);
 /// avoids coincident surfaces). One camera: eye (278, 273, −800) mm looking along +z,
 /// vertical field of view `2·atan(12.5/35)` (35 mm lens, 25 mm film).
 pub fn cornell_box() -> Scene {
-    let mut s = Scene::new("cornell-box");
-    let white = s.add_material(Material::lambertian("white", CORNELL_WHITE, Rgb::BLACK));
-    let red = s.add_material(Material::lambertian("red", CORNELL_RED, Rgb::BLACK));
-    let green = s.add_material(Material::lambertian("green", CORNELL_GREEN, Rgb::BLACK));
-    let light = s.add_material(Material::lambertian(
-        "light",
-        CORNELL_LIGHT_REFLECTANCE,
-        CORNELL_LIGHT_RADIANCE.scale(std::f64::consts::PI),
-    ));
-    one_sided(&mut s, "floor", quad_mesh(&[CORNELL_FLOOR], MM), white);
-    let [cx, cy, cz] = CORNELL_CEILING.map(|v| v * MM);
-    let [[lx0, lz0], [lx1, lz1]] = CORNELL_LIGHT.map(|p| p.map(|v| v * MM));
-    // Frame u = +x, v = +z: normal u × v = −y (facing down into the box).
-    let ceiling_frame = PlaneFrame {
-        origin: DVec3::new(0.0, cy, 0.0),
-        u: DVec3::X,
-        v: DVec3::Z,
-    };
-    one_sided(
-        &mut s,
-        "ceiling",
-        rect_with_hole(
-            ceiling_frame,
-            [DVec2::ZERO, DVec2::new(cx, cz)],
-            [DVec2::new(lx0, lz0), DVec2::new(lx1, lz1)],
-        ),
-        white,
-    );
-    one_sided(&mut s, "back_wall", quad_mesh(&[CORNELL_BACK], MM), white);
-    one_sided(&mut s, "left_wall", quad_mesh(&[CORNELL_LEFT], MM), red);
-    one_sided(&mut s, "right_wall", quad_mesh(&[CORNELL_RIGHT], MM), green);
-    one_sided(
-        &mut s,
-        "short_block",
-        quad_mesh(&CORNELL_SHORT_BLOCK, MM),
-        white,
-    );
-    one_sided(
-        &mut s,
-        "tall_block",
-        quad_mesh(&CORNELL_TALL_BLOCK, MM),
-        white,
-    );
-    one_sided(
-        &mut s,
-        "light",
-        Shape::parallelogram(
-            DVec3::new(lx0, cy, lz0),
-            DVec3::new(lx1 - lx0, 0.0, 0.0),
-            DVec3::new(0.0, 0.0, lz1 - lz0),
-        ),
-        light,
-    );
-    if let Some(cam) = Camera::look_at(
-        "camera",
-        DVec3::new(278.0, 273.0, -800.0) * MM,
-        DVec3::new(278.0, 273.0, -799.0) * MM,
-        DVec3::Y,
-        2.0 * (12.5f64 / 35.0).atan(),
-        Some(1.0),
-    ) {
-        s.cameras.push(cam);
-    }
-    s
+    embedded("cornell-box.toml")
 }
 
 // ---------------------------------------------------------------------------------
@@ -266,52 +276,15 @@ pub const UNOCCLUDED_EMITTER_HEIGHT: f64 = 0.1;
 /// axis, in degrees (ours; "rotated to prevent alignment with the basis functions").
 pub const ZIEGLER_ROTATION_DEG: f64 = 30.0;
 
-/// A square of side `side` centred at `center` in a horizontal plane, rotated by
-/// `deg` about +z, facing `up` (+z) or down (−z).
-fn rotated_square(center: DVec3, side: f64, deg: f64, up: bool) -> Shape {
-    let (sn, cs) = deg.to_radians().sin_cos();
-    let a = DVec3::new(cs, sn, 0.0) * side;
-    let b = DVec3::new(-sn, cs, 0.0) * side;
-    // a × b = +z side².
-    let (eu, ev) = if up { (a, b) } else { (b, a) };
-    Shape::parallelogram(center - 0.5 * (eu + ev), eu, ev)
-}
-
 /// Ziegler §4.1.1 "Unoccluded" (Fig. 4.1, the scene of Gortler et al. 1993): receiver
 /// `S0` = unit square `[0,1]² × {0}` facing +z with `ρ₀ = 0.4`; emitter `S1` = square
 /// of side 0.25 centred at `(0.5, 0.5, 0.1)`, rotated 30° about z, facing down, with
 /// `ρ₁ = 0` and exitance `E = 100`. The reference solution on S0 is
-/// `B(p) = ρ₀ E F(p → S1)` (point-to-polygon form factor), Ziegler §4.1.1.
+/// `B(p) = ρ₀ E F(p → S1)` (point-to-polygon form factor), Ziegler §4.1.1. Loaded from
+/// `data/builtin/ziegler-unoccluded.toml` (the constants above describe it; a test
+/// checks that they agree).
 pub fn unoccluded() -> Scene {
-    let mut s = Scene::new("ziegler-unoccluded");
-    let m0 = s.add_material(Material::lambertian(
-        "S0",
-        Rgb::grey(ZIEGLER_RHO0),
-        Rgb::BLACK,
-    ));
-    let m1 = s.add_material(Material::lambertian(
-        "S1",
-        Rgb::BLACK,
-        Rgb::grey(ZIEGLER_EMISSION),
-    ));
-    one_sided(
-        &mut s,
-        "S0",
-        Shape::parallelogram(DVec3::ZERO, DVec3::X, DVec3::Y),
-        m0,
-    );
-    one_sided(
-        &mut s,
-        "S1",
-        rotated_square(
-            DVec3::new(0.5, 0.5, UNOCCLUDED_EMITTER_HEIGHT),
-            UNOCCLUDED_EMITTER_SIDE,
-            ZIEGLER_ROTATION_DEG,
-            false,
-        ),
-        m1,
-    );
-    s
+    embedded("ziegler-unoccluded.toml")
 }
 
 /// Side of the "Occluded" blocker (ours).
@@ -326,70 +299,9 @@ pub const OCCLUDED_EMITTER: [[f64; 2]; 2] = [[0.25, 0.25], [0.75, 0.75]];
 /// two surfaces, `S1` (the square with a hole, no emission) and `S1.emitter` (the
 /// hole, `ρ = 0.4`, `E = 100`); blocker `S2` = square of side 0.4 centred at
 /// `(0.5, 0.5, 0.5)`, rotated 30° about z, facing up, `ρ₂ = 0`, no emission (its back
-/// is a black occluder).
+/// is a black occluder). Loaded from `data/builtin/ziegler-occluded.toml`.
 pub fn occluded() -> Scene {
-    let mut s = Scene::new("ziegler-occluded");
-    let m0 = s.add_material(Material::lambertian(
-        "S0",
-        Rgb::grey(ZIEGLER_RHO0),
-        Rgb::BLACK,
-    ));
-    let m1 = s.add_material(Material::lambertian(
-        "S1",
-        Rgb::grey(ZIEGLER_RHO0),
-        Rgb::BLACK,
-    ));
-    let m1e = s.add_material(Material::lambertian(
-        "S1.emitter",
-        Rgb::grey(ZIEGLER_RHO0),
-        Rgb::grey(ZIEGLER_EMISSION),
-    ));
-    let m2 = s.add_material(Material::lambertian("S2", Rgb::BLACK, Rgb::BLACK));
-    one_sided(
-        &mut s,
-        "S0",
-        Shape::parallelogram(DVec3::ZERO, DVec3::X, DVec3::Y),
-        m0,
-    );
-    // Frame u = +y, v = +x at z = 1: normal (+y) × (+x) = −z. 2D coordinates (y, x).
-    let frame = PlaneFrame {
-        origin: DVec3::new(0.0, 0.0, 1.0),
-        u: DVec3::Y,
-        v: DVec3::X,
-    };
-    let [[e0x, e0y], [e1x, e1y]] = OCCLUDED_EMITTER;
-    one_sided(
-        &mut s,
-        "S1",
-        rect_with_hole(
-            frame,
-            [DVec2::ZERO, DVec2::ONE],
-            [DVec2::new(e0y, e0x), DVec2::new(e1y, e1x)],
-        ),
-        m1,
-    );
-    one_sided(
-        &mut s,
-        "S1.emitter",
-        Shape::parallelogram(
-            DVec3::new(e0x, e0y, 1.0),
-            DVec3::new(0.0, e1y - e0y, 0.0),
-            DVec3::new(e1x - e0x, 0.0, 0.0),
-        ),
-        m1e,
-    );
-    one_sided(
-        &mut s,
-        "S2",
-        rotated_square(
-            DVec3::new(0.5, 0.5, 0.5),
-            OCCLUDED_BLOCKER_SIDE,
-            ZIEGLER_ROTATION_DEG,
-            true,
-        ),
-        m2,
-    );
-    s
+    embedded("ziegler-occluded.toml")
 }
 
 // ---------------------------------------------------------------------------------
@@ -479,10 +391,15 @@ pub fn ziegler_box_reflectance(i: usize, reflectivity: Reflectivity, variant: Bo
 /// ([`ZIEGLER_BOX_HIGH`], [`ZIEGLER_BOX_LOW`]). That the no-occlusion scene has six
 /// surfaces and the occluded one twelve matches Ziegler's link counts
 /// (2 516 580 = 6² × 69 905 and 10 066 320 = 12² × 69 905 potential links, 69 905 =
-/// Σ_{l<5} 16^l same-level pairs of a 5-level Haar hierarchy).
+/// Σ_{l<5} 16^l same-level pairs of a 5-level Haar hierarchy). Loaded from
+/// `data/builtin/ziegler-box.toml` (plus `ziegler-box-cube.toml` with `inner_cube`);
+/// the reflectances of the chosen table row and variant are applied here.
 pub fn ziegler_box(inner_cube: bool, reflectivity: Reflectivity, variant: BoxVariant) -> Scene {
-    let l = ZIEGLER_BOX_SIDE;
-    let name = format!(
+    let mut s = embedded("ziegler-box.toml");
+    if inner_cube {
+        s.merge(embedded("ziegler-box-cube.toml"), "");
+    }
+    s.name = format!(
         "ziegler-box-{}-{}-{}",
         if inner_cube { "occluded" } else { "unoccluded" },
         match reflectivity {
@@ -494,66 +411,14 @@ pub fn ziegler_box(inner_cube: bool, reflectivity: Reflectivity, variant: BoxVar
             BoxVariant::B => "b",
         }
     );
-    let mut s = Scene::new(name);
-    let mat = |s: &mut Scene, i: usize, emission: f64, suffix: &str| {
-        let rho = ziegler_box_reflectance(i, reflectivity, variant);
-        s.add_material(Material::lambertian(
-            format!("S{i}{suffix}"),
-            Rgb::grey(rho),
-            Rgb::grey(emission),
-        ))
-    };
-    let (x, y, z) = (DVec3::X, DVec3::Y, DVec3::Z);
-    // Outer box, inward normals (edge_u × edge_v points inside).
-    let walls: [(DVec3, DVec3, DVec3); 5] = [
-        (DVec3::ZERO, y * l, z * l),             // S0: x = 0, normal +x
-        (DVec3::new(l, 0.0, 0.0), z * l, y * l), // S1: x = l, normal −x
-        (DVec3::ZERO, x * l, y * l),             // S2: z = 0, normal +z
-        (DVec3::new(0.0, 0.0, l), y * l, x * l), // S3: z = l, normal −z
-        (DVec3::ZERO, z * l, x * l),             // S4: y = 0, normal +y
-    ];
-    for (i, (o, u, v)) in walls.into_iter().enumerate() {
-        let m = mat(&mut s, i, 0.0, "");
-        one_sided(&mut s, &format!("S{i}"), Shape::parallelogram(o, u, v), m);
-    }
-    // S5: ceiling y = l facing down (frame u = +x, v = +z: normal −y), hole [1,2]².
-    let m5 = mat(&mut s, 5, 0.0, "");
-    let frame = PlaneFrame {
-        origin: DVec3::new(0.0, l, 0.0),
-        u: x,
-        v: z,
-    };
-    one_sided(
-        &mut s,
-        "S5",
-        rect_with_hole(
-            frame,
-            [DVec2::ZERO, DVec2::splat(l)],
-            [DVec2::splat(1.0), DVec2::splat(2.0)],
-        ),
-        m5,
-    );
-    let m5l = mat(&mut s, 5, ZIEGLER_EMISSION, ".light");
-    one_sided(
-        &mut s,
-        "S5.light",
-        Shape::parallelogram(DVec3::new(1.0, l, 1.0), x, z),
-        m5l,
-    );
-    if inner_cube {
-        let c0 = DVec3::splat(1.0);
-        let faces: [(DVec3, DVec3, DVec3); 6] = [
-            (c0, z, y),     // S6: x = 1, normal −x
-            (c0 + x, y, z), // S7: x = 2, normal +x
-            (c0, y, x),     // S8: z = 1, normal −z
-            (c0 + z, x, y), // S9: z = 2, normal +z
-            (c0 + y, z, x), // S10: y = 2, normal +y
-            (c0, x, z),     // S11: y = 1, normal −y
-        ];
-        for (k, (o, u, v)) in faces.into_iter().enumerate() {
-            let i = 6 + k;
-            let m = mat(&mut s, i, 0.0, "");
-            one_sided(&mut s, &format!("S{i}"), Shape::parallelogram(o, u, v), m);
+    // Materials are named `S<i>` (and `S5.light`, which takes S5's reflectance).
+    for m in &mut s.materials {
+        let index = m
+            .name
+            .strip_prefix('S')
+            .and_then(|rest| rest.split('.').next().and_then(|i| i.parse::<usize>().ok()));
+        if let Some(i) = index {
+            m.reflectance = Rgb::grey(ziegler_box_reflectance(i, reflectivity, variant));
         }
     }
     s
@@ -566,30 +431,18 @@ pub fn ziegler_box(inner_cube: bool, reflectivity: Reflectivity, variant: BoxVar
 /// A closed unit cube `[0, 1]³` of six inward-facing unit squares (`face-x0`,
 /// `face-x1`, `face-y0`, `face-y1`, `face-z0`, `face-z1`), all with reflectance `ρ`
 /// and exitance `E` (grey). Every form-factor row sums to one, so the exact radiosity
-/// is `B = E / (1 − ρ)` everywhere: the white-furnace check.
+/// is `B = E / (1 − ρ)` everywhere: the white-furnace check. Loaded from
+/// `data/builtin/white-furnace.toml` with `E` and `ρ` applied here.
 ///
 /// # Errors
 /// [`SceneError::InvalidReflectance`] unless `0 <= ρ < 1`;
 /// [`SceneError::InvalidEmission`] unless `E` is finite and `>= 0`.
 pub fn white_furnace(emission: f64, reflectance: f64) -> Result<Scene, SceneError> {
-    let mut s = Scene::new("white-furnace");
-    let m = s.add_material(Material::lambertian(
-        "furnace",
-        Rgb::grey(reflectance),
-        Rgb::grey(emission),
-    ));
-    s.materials[m].validate(BUILTIN_FILE)?;
-    let (x, y, z) = (DVec3::X, DVec3::Y, DVec3::Z);
-    let faces = [
-        ("face-x0", DVec3::ZERO, y, z),
-        ("face-x1", x, z, y),
-        ("face-y0", DVec3::ZERO, z, x),
-        ("face-y1", y, x, z),
-        ("face-z0", DVec3::ZERO, x, y),
-        ("face-z1", z, y, x),
-    ];
-    for (name, o, u, v) in faces {
-        one_sided(&mut s, name, Shape::parallelogram(o, u, v), m);
+    let mut s = embedded("white-furnace.toml");
+    for m in &mut s.materials {
+        m.reflectance = Rgb::grey(reflectance);
+        m.emission = Rgb::grey(emission);
+        m.validate(BUILTIN_FILE)?;
     }
     Ok(s)
 }
@@ -663,5 +516,193 @@ pub fn builtin(name: &str) -> Option<Scene> {
             };
             parts.next().is_none().then(|| ziegler_box(cube, refl, var))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The data files against the published numbers and the documented constants
+    //! (the constants describe the files; these tests keep the two in agreement).
+
+    use super::*;
+    use crate::shape::MeshElement;
+
+    /// Largest coordinate difference allowed between `x mm × 10⁻³` and the decimal
+    /// literal `x / 1000` in metres: both round the same real number, so they differ by
+    /// at most a few ulps of a value below 1.
+    const ULPS: f64 = 1e-15;
+
+    fn close(a: DVec3, b: DVec3) -> bool {
+        (a - b).abs().max_element() <= ULPS
+    }
+
+    fn elements(shape: &Shape) -> Vec<MeshElement> {
+        match shape {
+            Shape::Mesh(m) => m.elements().collect(),
+            other => panic!("expected a mesh, got {other:?}"),
+        }
+    }
+
+    fn same_mesh(a: &Shape, b: &Shape) -> bool {
+        let (ea, eb) = (elements(a), elements(b));
+        ea.len() == eb.len()
+            && ea.iter().zip(&eb).all(|(x, y)| match (x, y) {
+                (MeshElement::Triangle(p), MeshElement::Triangle(q)) => {
+                    p.iter().zip(q).all(|(p, q)| close(*p, *q))
+                }
+                (
+                    MeshElement::Parallelogram {
+                        origin: o1,
+                        edge_u: u1,
+                        edge_v: v1,
+                    },
+                    MeshElement::Parallelogram {
+                        origin: o2,
+                        edge_u: u2,
+                        edge_v: v2,
+                    },
+                ) => close(*o1, *o2) && close(*u1, *u2) && close(*v1, *v2),
+                _ => false,
+            })
+    }
+
+    #[test]
+    fn files_on_disk_load_as_the_builtins() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/builtin");
+        for (name, _) in BUILTIN_FILES {
+            let options = LoadOptions {
+                grouping: MeshGrouping::Triangles,
+            };
+            let from_disk = crate::native::load_native_with(dir.join(name), &options).unwrap();
+            let embedded = load_builtin_file(name).unwrap();
+            assert_eq!(from_disk.surfaces, embedded.surfaces, "{name}");
+            assert_eq!(from_disk.materials, embedded.materials, "{name}");
+            assert_eq!(from_disk.cameras, embedded.cameras, "{name}");
+            assert!(embedded.warnings.is_empty(), "{name}");
+        }
+        assert!(load_builtin_file("nope.toml").is_err());
+    }
+
+    #[test]
+    fn cornell_file_matches_the_published_data() {
+        let s = cornell_box();
+        let shape = |n: &str| &s.surface(n).unwrap().shape;
+        for (name, quads) in [
+            ("floor", &[CORNELL_FLOOR][..]),
+            ("back_wall", &[CORNELL_BACK]),
+            ("left_wall", &[CORNELL_LEFT]),
+            ("right_wall", &[CORNELL_RIGHT]),
+            ("short_block", &CORNELL_SHORT_BLOCK),
+            ("tall_block", &CORNELL_TALL_BLOCK),
+        ] {
+            let want = quad_mesh(quads, MM);
+            assert!(
+                same_mesh(shape(name), &want),
+                "{name}: {:?} vs {:?}",
+                elements(shape(name)),
+                elements(&want)
+            );
+        }
+        let [cx, cy, cz] = CORNELL_CEILING.map(|v| v * MM);
+        let [[lx0, lz0], [lx1, lz1]] = CORNELL_LIGHT.map(|p| p.map(|v| v * MM));
+        let Shape::Polygon(ceiling) = shape("ceiling") else {
+            panic!("ceiling is a polygon")
+        };
+        let starts = |l: &Loop| -> Vec<DVec2> { l.edges.iter().map(|e| e.start()).collect() };
+        let want_outer = [(0.0, 0.0), (cx, 0.0), (cx, cz), (0.0, cz)];
+        let want_hole = [(lx0, lz0), (lx1, lz0), (lx1, lz1), (lx0, lz1)];
+        for (got, want) in [
+            (starts(&ceiling.outer), &want_outer),
+            (starts(&ceiling.holes[0]), &want_hole),
+        ] {
+            assert_eq!(got.len(), 4);
+            for (g, (x, y)) in got.iter().zip(want) {
+                assert!((*g - DVec2::new(*x, *y)).abs().max_element() <= ULPS);
+            }
+        }
+        assert!(close(ceiling.frame.origin, DVec3::new(0.0, cy, 0.0)));
+        assert_eq!((ceiling.frame.u, ceiling.frame.v), (DVec3::X, DVec3::Z));
+        let Shape::Parallelogram {
+            origin,
+            edge_u,
+            edge_v,
+        } = shape("light")
+        else {
+            panic!("light is a parallelogram")
+        };
+        assert!(close(*origin, DVec3::new(lx0, cy, lz0)));
+        assert!(close(*edge_u, DVec3::new(lx1 - lx0, 0.0, 0.0)));
+        assert!(close(*edge_v, DVec3::new(0.0, 0.0, lz1 - lz0)));
+        let material = |n: &str| &s.materials[s.material_id(n).unwrap()];
+        assert_eq!(material("white").reflectance, CORNELL_WHITE);
+        assert_eq!(material("red").reflectance, CORNELL_RED);
+        assert_eq!(material("green").reflectance, CORNELL_GREEN);
+        assert_eq!(material("light").reflectance, CORNELL_LIGHT_REFLECTANCE);
+        assert_eq!(
+            material("light").emission,
+            CORNELL_LIGHT_RADIANCE.scale(std::f64::consts::PI)
+        );
+        let cam = &s.cameras[0];
+        assert!(close(cam.position, DVec3::new(278.0, 273.0, -800.0) * MM));
+        assert!(close(cam.forward, DVec3::Z));
+        let crate::camera::Projection::Perspective { yfov, aspect } = cam.projection else {
+            panic!("perspective camera")
+        };
+        assert!((yfov - 2.0 * (12.5f64 / 35.0).atan()).abs() <= 1e-15);
+        assert_eq!(aspect, Some(1.0));
+    }
+
+    /// Centre, side (of a square) and rotation about z in degrees of a parallelogram.
+    fn square(shape: &Shape) -> (DVec3, f64, f64) {
+        let Shape::Parallelogram {
+            origin,
+            edge_u,
+            edge_v,
+        } = shape
+        else {
+            panic!("expected a parallelogram, got {shape:?}")
+        };
+        assert!((edge_u.length() - edge_v.length()).abs() < 1e-15);
+        assert!(edge_u.dot(*edge_v).abs() < 1e-15);
+        let axis = if edge_u.cross(*edge_v).z > 0.0 {
+            *edge_u
+        } else {
+            *edge_v
+        };
+        let deg = axis.y.atan2(axis.x).to_degrees();
+        (*origin + 0.5 * (*edge_u + *edge_v), edge_u.length(), deg)
+    }
+
+    #[test]
+    fn ziegler_files_match_the_documented_constants() {
+        let u = unoccluded();
+        let (c, side, deg) = square(&u.surface("S1").unwrap().shape);
+        assert!(close(c, DVec3::new(0.5, 0.5, UNOCCLUDED_EMITTER_HEIGHT)));
+        assert!((side - UNOCCLUDED_EMITTER_SIDE).abs() < 1e-15);
+        assert!((deg - ZIEGLER_ROTATION_DEG).abs() < 1e-12, "{deg}");
+        let m = |s: &Scene, n: &str| s.materials[s.material_id(n).unwrap()].clone();
+        assert_eq!(m(&u, "S0").reflectance, Rgb::grey(ZIEGLER_RHO0));
+        assert_eq!(m(&u, "S1").emission, Rgb::grey(ZIEGLER_EMISSION));
+        let o = occluded();
+        let (c, side, deg) = square(&o.surface("S2").unwrap().shape);
+        assert!(close(c, DVec3::splat(0.5)));
+        assert!((side - OCCLUDED_BLOCKER_SIDE).abs() < 1e-15);
+        assert!((deg - ZIEGLER_ROTATION_DEG).abs() < 1e-12, "{deg}");
+        let Shape::Parallelogram {
+            origin,
+            edge_u,
+            edge_v,
+            ..
+        } = o.surface("S1.emitter").unwrap().shape
+        else {
+            panic!("emitter is a parallelogram")
+        };
+        let [[x0, y0], [x1, y1]] = OCCLUDED_EMITTER;
+        assert_eq!(origin, DVec3::new(x0, y0, 1.0));
+        assert_eq!(origin + edge_u + edge_v, DVec3::new(x1, y1, 1.0));
+        assert_eq!(m(&o, "S1.emitter").emission, Rgb::grey(ZIEGLER_EMISSION));
+        let b = ziegler_box(true, Reflectivity::High, BoxVariant::A);
+        let side = |n: &str| b.surface(n).unwrap().shape.area();
+        assert_eq!(side("S0"), ZIEGLER_BOX_SIDE * ZIEGLER_BOX_SIDE);
     }
 }

@@ -82,7 +82,7 @@ pub use material::{
     EmissionProfile, Material, ReflectancePolicy, Rgb, Texture, TextureRef, WardParams,
 };
 pub use medium::Medium;
-pub use native::{load_native, load_native_with, parse_native};
+pub use native::{load_native, load_native_with, parse_native, parse_native_with};
 pub use scene::{DefaultValue, MaterialId, Scene, Sidedness, Surface};
 pub use shape::{
     BezierPatch, Loop, LoopEdge, MeshElement, PlaneFrame, PolygonShape, Shape, TriangleMesh,

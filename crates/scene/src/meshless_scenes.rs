@@ -679,6 +679,9 @@ mod tests {
         assert!((60_000..=72_000).contains(&n), "atrium has {n} triangles");
         let small = triangles(&atrium(ATRIUM_S_DETAIL));
         assert!((14_000..=18_000).contains(&small), "atrium-s has {small}");
+        // ≈ 1M (the Great Hall stand-in): 996,636 at ATRIUM_XL_DETAIL.
+        let xl = triangles(&atrium(ATRIUM_XL_DETAIL));
+        assert!((950_000..=1_050_000).contains(&xl), "atrium-xl has {xl}");
         assert_eq!(a.lights.len(), 1);
         assert_eq!(a.cameras.len(), 1);
         // Six drapes, four urns, two end walls.

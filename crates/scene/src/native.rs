@@ -421,7 +421,17 @@ fn load_native_rec(
 /// Parses native-format text. `file` names the source in errors; `base` resolves
 /// includes (`None`: includes are an error).
 pub fn parse_native(text: &str, file: &str, base: Option<&Path>) -> Result<Scene, SceneError> {
-    parse_inner(text, file, base, &mut Vec::new(), &LoadOptions::default())
+    parse_native_with(text, file, base, &LoadOptions::default())
+}
+
+/// [`parse_native`] with loader options (mesh grouping).
+pub fn parse_native_with(
+    text: &str,
+    file: &str,
+    base: Option<&Path>,
+    options: &LoadOptions,
+) -> Result<Scene, SceneError> {
+    parse_inner(text, file, base, &mut Vec::new(), options)
 }
 
 fn degrees(r: Option<[f64; 2]>, default: (f64, f64)) -> (f64, f64) {

@@ -47,10 +47,59 @@
 //! 12, trade's session 23 measurement), and direct light received `δ B_i` instead of
 //! `δ E_light`.
 
+use std::collections::HashMap;
+
 use rayon::prelude::*;
 
 use crate::hierarchy::{Hierarchy, LinkRec, NodeKey};
 use crate::transfer::{LinkVisibility, TransferCtx};
+
+/// The geometric terms of the closure kept between calls of [`closure_links_cached`]
+/// (the refine–solve rounds of [`crate::target`], which recompute the closure of
+/// every link and every leaf under it each round while only a few links change):
+/// per link `(R, E)` its exact unoccluded constant and receiver moments, per leaf `i`
+/// and emitter node `E` the leaf's exact moments against `E` and, below a partly
+/// visible link, its own visible fraction. They depend only on the geometry and the
+/// basis, never on the solution or the other links, so a cached closure is bitwise
+/// the closure computed afresh. A cache belongs to one transfer context; it keeps
+/// only what the last call used.
+#[derive(Debug, Clone, Default)]
+pub struct ClosureCache {
+    links: HashMap<(NodeKey, NodeKey), LinkTerm>,
+    leaves: HashMap<LeafKey, LeafTerm>,
+}
+
+impl ClosureCache {
+    /// An empty cache.
+    pub fn new() -> Self {
+        Self::default()
+    }
+}
+
+/// A leaf's exact moments against an emitter node (`None`: no exact form) and, when
+/// asked for, its own visible fraction.
+#[derive(Debug, Clone)]
+struct LeafTerm {
+    m: Option<Vec<f64>>,
+    own: Option<f64>,
+}
+
+/// A link's exact unoccluded constant and receiver moments (`None`: no exact form).
+type LinkTerm = Option<(f64, Vec<f64>)>;
+
+/// A leaf's defect (leaf node index, defect coefficients, emitter patch).
+type Defect = (u32, Vec<f64>, u32);
+
+/// Key of a leaf term: leaf, emitter node, whether the visible fraction is asked for.
+type LeafKey = (NodeKey, NodeKey, bool);
+
+/// What one link's closure found: its link term when new, the new leaf terms, and
+/// the keys of the leaf terms it took from the cache.
+type Fresh = (
+    Option<((NodeKey, NodeKey), LinkTerm)>,
+    Vec<(LeafKey, LeafTerm)>,
+    Vec<LeafKey>,
+);
 
 /// Whether `l` is a closure link: a node linked to itself on a planar support (a plane
 /// sees none of itself, so no transfer link is ever such a pair). Refinement must drop
@@ -73,45 +122,70 @@ pub struct Closure {
 }
 
 /// The closure of the links `links` compiled into `h` (see the module docs). Links
-/// whose pieces are not planar polygons (curved, disk, partial virtual pieces)
-/// contribute no defect.
+/// without exact pieces (masked curved supports, trims with arcs crossing a node) and
+/// links into curved receivers (whose closure link would coincide with a curved node's
+/// self link) contribute no defect.
 pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) -> Closure {
+    closure_links_cached(ctx, h, links, &mut ClosureCache::new())
+}
+
+/// [`closure_links`] taking the geometric terms from `cache` where an earlier call
+/// (same transfer context) left them, and leaving there the terms of this call: the
+/// same closure, bitwise, with a full, an empty or a stale cache.
+pub fn closure_links_cached(
+    ctx: &TransferCtx<'_>,
+    h: &Hierarchy,
+    links: &[LinkRec],
+    cache: &mut ClosureCache,
+) -> Closure {
     let n = h.n;
     let basis = ctx.basis();
     let node_of = |k: &NodeKey| h.keys.binary_search(k).ok();
-    let parts: Vec<Vec<(u32, Vec<f64>, u32)>> = links
+    let area =
+        |k: &NodeKey| ctx.patches[k.patch as usize].support.area * 0.25f64.powi(k.level as i32);
+    let seen: &ClosureCache = cache;
+    let parts: Vec<(Vec<Defect>, Fresh)> = links
         .par_iter()
         .map(|l| {
             let mut out = Vec::new();
+            let mut fresh: Fresh = (None, Vec::new(), Vec::new());
             let (Some(ri), Some(_)) = (node_of(&l.r), node_of(&l.e)) else {
-                return out;
+                return (out, fresh);
             };
+            // Curved receivers keep their links' exact blocks but get no closure
+            // link: it would coincide with a curved node's own self link.
+            if !ctx.patches[l.r.patch as usize].support.is_planar() {
+                return (out, fresh);
+            }
             let (rr, er) = (l.r.region(), l.e.region());
             let Some((pr, pe)) = ctx.exact_pieces(&rr, &er) else {
-                return out;
-            };
-            let area = |k: &NodeKey| {
-                ctx.patches[k.patch as usize].support.area * 0.25f64.powi(k.level as i32)
+                return (out, fresh);
             };
             let (ar, ae) = (area(&l.r), area(&l.e));
             let mut evals = 0u64;
-            let Some(exact) = ctx.exact_constant(&pr, &pe) else {
-                return out;
-            };
             // The unoccluded exact column the link's block was corrected to, as
             // irradiance coefficients of R from unit radiosity on E (piecewise
-            // constants: the constant entry alone).
-            let mut v = if n == 1 {
-                vec![exact]
-            } else {
-                let Some(v) = ctx.exact_moments(&rr, &pe, &mut evals) else {
-                    return out;
-                };
-                v
+            // constants: the constant entry alone), with the exact constant.
+            let term = match seen.links.get(&(l.r, l.e)) {
+                Some(t) => t.clone(),
+                None => {
+                    let t = ctx.exact_constant(&pr, &pe).and_then(|exact| {
+                        if n == 1 {
+                            Some((exact, vec![exact]))
+                        } else {
+                            ctx.exact_moments(&rr, &pe, &mut evals).map(|v| (exact, v))
+                        }
+                    });
+                    fresh.0 = Some(((l.r, l.e), t.clone()));
+                    t
+                }
+            };
+            let Some((exact, mut v)) = term else {
+                return (out, fresh);
             };
             let unit = exact / (ar * ae).sqrt();
             if !(unit > 0.0 && unit.is_finite()) {
-                return out;
+                return (out, fresh);
             }
             let alpha = (l.block[0] / unit).clamp(0.0, 1.0);
             v[0] = exact;
@@ -133,22 +207,40 @@ pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) ->
                 if ch[0] == u32::MAX {
                     let k = h.keys[i];
                     let kr = k.region();
-                    // The leaf's constant entry as exactly as the link's own (the
-                    // contour integral between polygons).
-                    let c = ctx
-                        .exact_pieces(&kr, &er)
-                        .and_then(|(pl, _)| ctx.exact_constant(&pl, &pe));
-                    let m = match c {
-                        Some(c) if n == 1 => vec![c],
-                        _ => {
-                            let Some(mut m) = ctx.exact_moments(&kr, &pe, &mut evals) else {
-                                continue;
-                            };
-                            if let Some(c) = c {
-                                m[0] = c;
-                            }
-                            m
+                    let want_own = partial && i != ri;
+                    let key = (k, l.e, want_own);
+                    let leaf = match seen.leaves.get(&key) {
+                        Some(t) => {
+                            fresh.2.push(key);
+                            t.clone()
                         }
+                        None => {
+                            // The leaf's constant entry as exactly as the link's own
+                            // (the contour integral between polygons).
+                            let c = ctx
+                                .exact_pieces(&kr, &er)
+                                .and_then(|(pl, _)| ctx.exact_constant(&pl, &pe));
+                            let m = match c {
+                                Some(c) if n == 1 => Some(vec![c]),
+                                _ => ctx.exact_moments(&kr, &pe, &mut evals).map(|mut m| {
+                                    if let Some(c) = c {
+                                        m[0] = c;
+                                    }
+                                    m
+                                }),
+                            };
+                            let own = if want_own && m.is_some() {
+                                ctx.visible_fraction(&kr, &er)
+                            } else {
+                                None
+                            };
+                            let t = LeafTerm { m, own };
+                            fresh.1.push((key, t.clone()));
+                            t
+                        }
+                    };
+                    let Some(m) = leaf.m else {
+                        continue;
                     };
                     let s = area(&k).sqrt();
                     let mut d: Vec<f64> = m
@@ -156,8 +248,8 @@ pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) ->
                         .zip(&v[..n])
                         .map(|(m, p)| alpha * (m / s - p))
                         .collect();
-                    if partial && i != ri {
-                        let own = ctx.visible_fraction(&kr, &er).unwrap_or(alpha);
+                    if want_own {
+                        let own = leaf.own.unwrap_or(alpha);
                         d[0] = own * m[0] / s - v[n];
                     }
                     out.push((i as u32, d, l.e.patch));
@@ -174,9 +266,33 @@ pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) ->
                     stack.push((ci as usize, w));
                 }
             }
-            out
+            (out, fresh)
         })
         .collect();
+    // Keep exactly the terms this call used (old ones looked up, new ones found).
+    let mut next = ClosureCache::default();
+    for l in links {
+        if let Some(t) = cache.links.remove(&(l.r, l.e)) {
+            next.links.insert((l.r, l.e), t);
+        }
+    }
+    let mut parts_out = Vec::with_capacity(parts.len());
+    for (out, (link, leaves, hits)) in parts {
+        if let Some((k, t)) = link {
+            next.links.insert(k, t);
+        }
+        for (k, t) in leaves {
+            next.leaves.insert(k, t);
+        }
+        for k in hits {
+            if let Some(t) = cache.leaves.remove(&k) {
+                next.leaves.insert(k, t);
+            }
+        }
+        parts_out.push(out);
+    }
+    *cache = next;
+    let parts = parts_out;
     // Sum per leaf in link order (deterministic whatever the thread count).
     let mut defect = vec![0.0; h.node_count() * n];
     let mut touched = vec![false; h.node_count()];
@@ -230,4 +346,39 @@ pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) ->
         });
     }
     Closure { links: out, source }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{BasisKind, Prepared, SolverConfig, hierarchy};
+
+    /// The closure of a refined hierarchy from a cache filled by a coarser one (the
+    /// refine–solve rounds) is bitwise the closure computed afresh.
+    #[test]
+    fn a_cached_closure_is_the_fresh_closure() {
+        let scene = wavelux_scene::builtin::cornell_box();
+        let cfg = SolverConfig {
+            basis: BasisKind::Multiwavelet(2),
+            max_level: 2,
+            ..SolverConfig::default()
+        };
+        let prep = Prepared::new(&scene, &cfg).unwrap();
+        let ctx = prep.transfer().unwrap();
+        let params = prep.refine_params(f64::INFINITY);
+        let (mut links, _) = hierarchy::refine_all(&ctx, &params, &|_: &NodeKey| 1.0);
+        let (n, np) = (prep.basis.n(), prep.patches.patches.len());
+        let mut cache = ClosureCache::new();
+        for round in 0..3 {
+            let h = Hierarchy::compile(n, np, &links);
+            let warm = closure_links_cached(&ctx, &h, &links, &mut cache);
+            let cold = closure_links(&ctx, &h, &links);
+            assert!(round == 0 || !(cold.links.is_empty() || cold.source.is_empty()));
+            assert_eq!(warm.links, cold.links, "round {round}");
+            assert_eq!(warm.source, cold.source, "round {round}");
+            let marked: Vec<bool> = (0..links.len()).map(|i| i % 3 == round % 3).collect();
+            links = hierarchy::split_marked(&ctx, &params, links, &marked).0;
+        }
+        assert!(links.iter().any(|l| l.seen == LinkVisibility::Partial));
+    }
 }

@@ -8,7 +8,9 @@
 //! for every link `(R, E)` covering the leaf, the emitter's radiosity (its pulled
 //! coefficients, the same function the link transports) is integrated point by point
 //! with a `q × q` Gauss rule on pieces of `E` split until each piece is well separated
-//! from the point (`dist ≥ near · radius`), with one shadow ray per point pair. The
+//! from the point (`dist ≥ near · radius`), with one shadow ray per point pair (none
+//! where no blocker can meet the shaft between the points' cell and the piece,
+//! [`crate::shaft`]: those rays would all be visible, and count so). The
 //! links of the hierarchy partition every receiver–emitter pair once, so their sum is
 //! the whole irradiance. The transported part `y = K e = K r + K y` is approximated
 //! on the discrete space, `y ≈ (I − K_h)⁻¹ K_h P r` (`P` the projection onto the leaf
@@ -374,7 +376,9 @@ struct Fine<'a> {
 impl Fine<'_> {
     /// `∫_piece G V φ_b dA` for a receiver point and every emitter function `b` of the
     /// node's orthonormal basis `φ = ψ/√A_node`, accumulated into `out[b]`; shadow
-    /// rays only when `vis`.
+    /// rays only when `vis` and the shaft between the point's cell `rc` and the piece
+    /// meets one of the candidate blockers `cands` ([`crate::shaft`]: a culled piece's
+    /// rays would all be visible, and are counted so).
     #[allow(clippy::too_many_arguments)]
     fn gather(
         &self,
@@ -383,6 +387,7 @@ impl Fine<'_> {
         pe: &Patch,
         en: &Region,
         es: &Region,
+        shaft: (&Region, Option<&[u32]>),
         depth: u32,
         vdepth: u32,
         vis: bool,
@@ -402,7 +407,19 @@ impl Fine<'_> {
         let split_partial = cov == Coverage::Partial && depth < 3;
         if (near || split_partial) && depth < self.max_depth {
             for b in es.split() {
-                self.gather(pt, pr, pe, en, &b, depth + 1, vdepth, vis, out, tally);
+                self.gather(
+                    pt,
+                    pr,
+                    pe,
+                    en,
+                    &b,
+                    shaft,
+                    depth + 1,
+                    vdepth,
+                    vis,
+                    out,
+                    tally,
+                );
             }
             return;
         }
@@ -414,6 +431,7 @@ impl Fine<'_> {
         let mut phi = [0.0; 16];
         let mut acc = [0.0; 16];
         let (mut seen, mut hidden) = (false, false);
+        let open = vis && self.ctx.shaft_open(shaft.0, es, shaft.1);
         for kt in 0..q {
             for ks in 0..q {
                 let w = weight_in(pe, es, (gx, gw, gc), ks, kt);
@@ -427,7 +445,10 @@ impl Fine<'_> {
                 if g == 0.0 {
                     continue;
                 }
-                if vis {
+                if vis && !open {
+                    tally.visible += 1;
+                    seen = true;
+                } else if vis {
                     let vy = if pe.support.mask.is_some() {
                         pe.support.visibility_point(u, v)
                     } else {
@@ -452,7 +473,19 @@ impl Fine<'_> {
             // A shadow boundary crosses the piece: its q² rays resolve the visible
             // part only to ~1/q²; integrate the quarters instead.
             for b in es.split() {
-                self.gather(pt, pr, pe, en, &b, depth + 1, vdepth + 1, vis, out, tally);
+                self.gather(
+                    pt,
+                    pr,
+                    pe,
+                    en,
+                    &b,
+                    shaft,
+                    depth + 1,
+                    vdepth + 1,
+                    vis,
+                    out,
+                    tally,
+                );
             }
             return;
         }
@@ -633,7 +666,10 @@ pub fn estimate_cached(
             .collect();
         let extra: Vec<(Vec<f64>, Tally)> = missing
             .par_iter()
-            .map(|&(l, li)| fine_at(&fine, sol, l, &pts[li]))
+            .map(|&(l, li)| {
+                let leaf = h.keys[h.leaves[li] as usize].region();
+                fine_at(&fine, sol, l, &leaf, &pts[li])
+            })
             .collect();
         for (&(l, li), (m, t)) in missing.iter().zip(extra) {
             tally.add(&t);
@@ -799,9 +835,16 @@ fn link_rays(fine: &Fine<'_>, sol: &Solution, l: usize) -> Option<bool> {
     }
 }
 
-/// Fine transport moments of link `l` at the given points of (a leaf under) its
-/// receiver (`[point · n + b]`; empty when the link carries nothing).
-fn fine_at(fine: &Fine<'_>, sol: &Solution, l: usize, pts: &[Point]) -> (Vec<f64>, Tally) {
+/// Fine transport moments of link `l` at the given points of the cell `cell` (its
+/// receiver or a leaf under it): `[point · n + b]`, empty when the link carries
+/// nothing.
+fn fine_at(
+    fine: &Fine<'_>,
+    sol: &Solution,
+    l: usize,
+    cell: &Region,
+    pts: &[Point],
+) -> (Vec<f64>, Tally) {
     let h = &sol.system.h;
     let n = h.n;
     let mut tally = Tally::default();
@@ -813,8 +856,26 @@ fn fine_at(fine: &Fine<'_>, sol: &Solution, l: usize, pts: &[Point]) -> (Vec<f64
     let pe = &sol.patches[ek.patch as usize];
     let ereg = ek.region();
     let mut m = vec![0.0; pts.len() * n];
+    // The blockers that may meet the shaft between the points' cell and the emitter.
+    let cands = if vis {
+        fine.ctx.shaft_candidates(cell, &ereg, None)
+    } else {
+        None
+    };
     for (pt, out) in pts.iter().zip(m.chunks_exact_mut(n)) {
-        fine.gather(pt, pr, pe, &ereg, &ereg, 0, 0, vis, out, &mut tally);
+        fine.gather(
+            pt,
+            pr,
+            pe,
+            &ereg,
+            &ereg,
+            (cell, cands.as_deref()),
+            0,
+            0,
+            vis,
+            out,
+            &mut tally,
+        );
     }
     (m, tally)
 }
@@ -829,7 +890,7 @@ fn link_moments(fine: &Fine<'_>, sol: &Solution, l: usize, rule: &Rule) -> (Mome
     let ek = h.keys[h.link_emitter[l] as usize];
     let pe = &sol.patches[ek.patch as usize];
     let pts = leaf_points(pr, &rreg, rule);
-    let (m, tally) = fine_at(fine, sol, l, &pts);
+    let (m, tally) = fine_at(fine, sol, l, &rreg, &pts);
     let (cr, rr) = pr.support.bounding_sphere(rreg.s0, rreg.t0, rreg.h);
     let ereg = ek.region();
     let (ce, re) = pe.support.bounding_sphere(ereg.s0, ereg.t0, ereg.h);

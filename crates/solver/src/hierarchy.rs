@@ -248,9 +248,34 @@ pub fn refine_link(
     if r.level == 0 && e.level == 0 {
         counts.unrefined_roots += 1;
     }
-    let (block, seen) = ctx.block_seen(&rr, &er);
+    let (block, seen) = if ctx.batches_blocks() {
+        (Vec::new(), LinkVisibility::Unknown)
+    } else {
+        ctx.block_seen(&rr, &er)
+    };
     out.push(LinkRec { r, e, block, seen });
     counts
+}
+
+/// Computes the blocks refinement left empty (when the context batches its shadow
+/// rays on an occluder, [`TransferCtx::batches_blocks`]), all together and in link
+/// order ([`TransferCtx::blocks_seen`]); bitwise the blocks refinement would have
+/// computed itself.
+fn fill_blocks(ctx: &TransferCtx<'_>, links: &mut [LinkRec]) {
+    if !ctx.batches_blocks() {
+        return;
+    }
+    let todo: Vec<usize> = (0..links.len())
+        .filter(|&i| links[i].block.is_empty())
+        .collect();
+    let pairs: Vec<(Region, Region)> = todo
+        .iter()
+        .map(|&i| (links[i].r.region(), links[i].e.region()))
+        .collect();
+    for (i, (block, seen)) in todo.into_iter().zip(ctx.blocks_seen(&pairs)) {
+        links[i].block = block;
+        links[i].seen = seen;
+    }
 }
 
 /// Refines every root pair `(receiver, emitter)` of patches that can interact:
@@ -301,6 +326,7 @@ pub fn refine_all(
         links.extend(v);
         counts.add(&c);
     }
+    fill_blocks(ctx, &mut links);
     (links, counts)
 }
 
@@ -346,6 +372,7 @@ pub fn rerefine(
         links.extend(v);
         counts.add(&c);
     }
+    fill_blocks(ctx, &mut links);
     (links, counts)
 }
 
@@ -398,7 +425,11 @@ pub fn split_marked(
                 .filter_map(|(a, b)| {
                     let (ar, br) = (a.region(), b.region());
                     ctx.facing(&ar, &br).then(|| {
-                        let (block, seen) = ctx.block_seen(&ar, &br);
+                        let (block, seen) = if ctx.batches_blocks() {
+                            (Vec::new(), LinkVisibility::Unknown)
+                        } else {
+                            ctx.block_seen(&ar, &br)
+                        };
                         LinkRec {
                             r: *a,
                             e: *b,
@@ -417,6 +448,7 @@ pub fn split_marked(
         out.extend(v);
         counts.add(&c);
     }
+    fill_blocks(ctx, &mut out);
     (out, counts)
 }
 

@@ -51,6 +51,8 @@ pub mod estimate;
 pub mod exact;
 pub mod hierarchy;
 pub mod mask;
+pub mod matvec;
+pub mod replay;
 pub(crate) mod shaft;
 pub mod shoot;
 pub mod solution;
@@ -64,8 +66,10 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use wavelux_geometry::Accel;
+use wavelux_geometry::backend::{Occluder, OcclusionBackend};
 use wavelux_geometry::primitive::{ComplexPolygon, Parallelogram, PlaneFrame, Primitive, Triangle};
 use wavelux_geometry::{Edge2, TrimLoop, TrimRegion};
+use wavelux_linear::backend::{BackendOperator, MatVecBackend};
 use wavelux_linear::{
     Convergence, IdentityMinus, IterationRecord, Operator, SolverOptions, StopReason, Work, cgnr,
     gmres, picard,
@@ -81,7 +85,7 @@ pub use solution::{Energy, Solution, Statistics};
 pub use standard::{Decomposition, StandardSystem};
 pub use support::{Patch, PatchSet, Side, Support, SupportMap, build_patches, build_patches_with};
 pub use system::System;
-pub use target::{Choice, Round, TargetConfig, TargetOutcome, solve_to_target};
+pub use target::{Choice, Round, TargetConfig, TargetOutcome, solve_to_target, solve_to_target_on};
 pub use transfer::{LinkVisibility, TransferCtx, TransferOptions, Visibility};
 pub use wavelux_param::ParamKind;
 
@@ -481,6 +485,21 @@ impl Prepared {
         )
     }
 
+    /// [`Self::transfer`] with the transfer blocks' shadow rays answered by an
+    /// occluder prepared by `backend` for [`Self::accel`] ([`TransferCtx::with_occluder`]):
+    /// the occluder (`None` without a backend) and, when the backend could not
+    /// prepare one, its error (the CPU then answers every ray).
+    pub fn occluder<'a>(
+        &'a self,
+        backend: Option<&dyn OcclusionBackend>,
+    ) -> (Option<Box<dyn Occluder + 'a>>, Option<String>) {
+        match backend.map(|b| (b.name(), b.occluder(&self.accel))) {
+            None => (None, None),
+            Some((_, Ok(o))) => (Some(o), None),
+            Some((name, Err(e))) => (None, Some(format!("{name}: {e}"))),
+        }
+    }
+
     /// Refinement parameters of the configuration with threshold `eps`.
     pub fn refine_params(&self, eps: f64) -> RefineParams {
         RefineParams {
@@ -716,10 +735,13 @@ pub(crate) fn brightness(prev: Option<&Solution>, patches: &[Patch], k: &NodeKey
 /// the emission) to relative residual `tolerance` and returns the solution. Compile
 /// and assembly time go into `stats.time_refine`, the solves into `stats.time_solve`;
 /// the counts of the hierarchy and the context's kernel and ray totals are updated.
+/// The closure's geometric terms are taken from and left in `closure_cache`
+/// ([`closure::ClosureCache`]: one per transfer context, kept between the rounds).
 ///
 /// # Errors
 /// [`SolverError::Linear`] if a linear solve fails, [`SolverError`] from the standard
 /// assembly.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn solve_links(
     prep: &Prepared,
     ctx: &TransferCtx<'_>,
@@ -727,6 +749,8 @@ pub(crate) fn solve_links(
     prev: Option<&Solution>,
     stats: &mut Statistics,
     tolerance: f64,
+    matvec: Option<&dyn MatVecBackend>,
+    closure_cache: &mut closure::ClosureCache,
 ) -> Result<Solution, SolverError> {
     let cfg = &prep.config;
     let patches = &prep.patches.patches;
@@ -736,7 +760,7 @@ pub(crate) fn solve_links(
     let closure::Closure {
         links: closing,
         source,
-    } = closure::closure_links(ctx, &h, links);
+    } = closure::closure_links_cached(ctx, &h, links, closure_cache);
     let h = if closing.is_empty() {
         h
     } else {
@@ -746,6 +770,25 @@ pub(crate) fn solve_links(
     let system = System::new(h, &prep.basis, patches).with_closure_source(&source);
     let standard = match cfg.decomposition {
         Decomposition::Standard => Some(StandardSystem::from_system(&system, &prep.basis)?),
+        _ => None,
+    };
+    // The gather on the matrix–vector device (crate::matvec).
+    let gather_m = match matvec {
+        Some(_) if standard.is_none() && cfg.linear_method != LinearMethod::GaussSeidel => {
+            Some(matvec::gather_matrix(&system.h)?)
+        }
+        _ => None,
+    };
+    let gather_op = match (matvec, &gather_m) {
+        (Some(mv), Some(m)) => match mv.prepare(m).and_then(BackendOperator::new) {
+            Ok(op) => Some(op),
+            Err(e) => {
+                stats
+                    .device_failure
+                    .get_or_insert(format!("{}: {e}", mv.name()));
+                None
+            }
+        },
         _ => None,
     };
     stats.time_refine += t_ref.elapsed();
@@ -766,15 +809,43 @@ pub(crate) fn solve_links(
                 x0,
                 None,
             )?,
-            None => solve_channel(
-                &system,
-                ch,
-                cfg.linear_method,
-                cfg.max_iterations,
-                tolerance,
-                x0,
-                None,
-            )?,
+            None => {
+                let on_device = gather_op.as_ref().and_then(|g| {
+                    let dev = matvec::DeviceK::new(&system, ch, g);
+                    let out = matvec::solve_refined(
+                        &system.channel(ch),
+                        &dev,
+                        &system.source(ch),
+                        cfg.linear_method,
+                        cfg.max_iterations,
+                        tolerance,
+                        x0.clone(),
+                    );
+                    match (out, g.error()) {
+                        (Ok(v), None) => Some(v),
+                        (out, err) => {
+                            let why = err.map_or_else(
+                                || format!("{:?}", out.err()),
+                                |e| format!("matvec device: {e}"),
+                            );
+                            stats.device_failure.get_or_insert(why);
+                            None
+                        }
+                    }
+                });
+                match on_device {
+                    Some(v) if stats.device_failure.is_none() => v,
+                    _ => solve_channel(
+                        &system,
+                        ch,
+                        cfg.linear_method,
+                        cfg.max_iterations,
+                        tolerance,
+                        x0,
+                        None,
+                    )?,
+                }
+            }
         };
         stats.iterations.push(c.iterations.len() - 1);
         conv.push(c);
@@ -793,6 +864,11 @@ pub(crate) fn solve_links(
     [stats.cells_empty, stats.cells_partial, stats.cells_full] = system.coverage_counts;
     stats.kernel_evals = ctx.kernel_evals.load(std::sync::atomic::Ordering::Relaxed);
     stats.rays = ctx.rays.load(std::sync::atomic::Ordering::Relaxed);
+    stats.device_rays = ctx.device_rays.load(std::sync::atomic::Ordering::Relaxed);
+    stats.deferred_rays = ctx.deferred_rays.load(std::sync::atomic::Ordering::Relaxed);
+    if stats.device_failure.is_none() {
+        stats.device_failure = ctx.device_failure();
+    }
     stats.bytes = system.h.bytes()
         + std::mem::size_of_val(links)
         + links.iter().map(|l| l.block.capacity() * 8).sum::<usize>();
@@ -805,6 +881,19 @@ pub(crate) fn solve_links(
         stats.clone(),
         conv,
     ))
+}
+
+/// Optional devices of a solve beside its `Copy` configuration (issue 17): the
+/// transfer blocks' shadow rays ([`crate::replay`], bitwise the CPU's answers) and
+/// the linear solve's gather ([`crate::matvec`], within the device contract, then
+/// refined in f64 to the tolerance). `Backends::default()` is the CPU.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Backends<'a> {
+    /// Occlusion device of the transfer blocks' shadow rays.
+    pub occlusion: Option<&'a dyn OcclusionBackend>,
+    /// Matrix–vector device of the non-standard gather (Picard, GMRES and CGNR; the
+    /// Gauss–Seidel sweep and the standard decomposition stay on the CPU).
+    pub matvec: Option<&'a dyn MatVecBackend>,
 }
 
 /// Refines, assembles and solves (see the crate docs).
@@ -822,20 +911,53 @@ pub fn solve(scene: &Scene, config: &SolverConfig) -> Result<Solution, SolverErr
 /// # Errors
 /// As [`solve`].
 pub fn solve_prepared(prep: &Prepared) -> Result<Solution, SolverError> {
+    solve_prepared_on(prep, Backends::default())
+}
+
+/// [`solve`] on devices ([`Backends`], issue 17). With an occlusion backend alone
+/// the solution is bitwise that of [`solve`] (the backend's contract and
+/// [`crate::replay`]); a matrix–vector backend changes it within the tolerance
+/// ([`crate::matvec`]). [`Statistics::device_rays`], [`Statistics::deferred_rays`]
+/// and [`Statistics::device_failure`] say what the devices did (a failing device
+/// hands the rest of the run to the CPU). Oracle estimates, the closure and the error
+/// estimate trace on the CPU; the CDV basis and the shooting solver use no backend.
+///
+/// # Errors
+/// As [`solve`].
+pub fn solve_on(
+    scene: &Scene,
+    config: &SolverConfig,
+    backends: Backends<'_>,
+) -> Result<Solution, SolverError> {
+    let prep = Prepared::new(scene, config)?;
+    solve_prepared_on(&prep, backends)
+}
+
+/// [`solve_on`] on a prepared scene.
+///
+/// # Errors
+/// As [`solve`].
+pub fn solve_prepared_on(prep: &Prepared, backends: Backends<'_>) -> Result<Solution, SolverError> {
     if prep.config.basis == BasisKind::Cdv {
         return cdv::solve(prep);
     }
     let cfg = &prep.config;
-    let ctx = prep.transfer()?;
+    let (occluder, failure) = prep.occluder(backends.occlusion);
+    let ctx = match &occluder {
+        Some(o) => prep.transfer()?.with_occluder(o.as_ref()),
+        None => prep.transfer()?,
+    };
     let stages = cfg.multigrid.map_or(1, |m| m.stages);
     let factor = cfg.multigrid.map_or(1.0, |m| m.factor);
     let mut links: Vec<LinkRec> = Vec::new();
     let mut prev: Option<Solution> = None;
     let mut stats = Statistics {
         time_setup: prep.setup_time,
+        device_failure: failure,
         ..Statistics::default()
     };
     let patches = &prep.patches.patches;
+    let mut closure_cache = closure::ClosureCache::new();
     for stage in 0..stages {
         let eps = cfg.eps * factor.powi((stages - 1 - stage) as i32);
         let params = prep.refine_params(eps);
@@ -859,6 +981,8 @@ pub fn solve_prepared(prep: &Prepared) -> Result<Solution, SolverError> {
             prev.as_ref(),
             &mut stats,
             cfg.tolerance,
+            backends.matvec,
+            &mut closure_cache,
         )?);
     }
     let mut sol = prev.ok_or_else(|| SolverError::InvalidScene("no stage ran".into()))?;

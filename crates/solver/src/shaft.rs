@@ -37,7 +37,9 @@
 //! Curved or masked cells (Virtual Mesh visibility points may lie outside the cell)
 //! are not culled. Candidate lists are inherited: a sub-pair of a near-field split
 //! tests only its link's candidates. The oracle's visibility samples
-//! ([`crate::transfer::TransferCtx::estimate`]) are culled the same way.
+//! ([`crate::transfer::TransferCtx::estimate`]) and the a-posteriori estimate's
+//! point-to-piece rays ([`crate::estimate`], between the residual points' cell and
+//! each emitter piece) are culled the same way.
 
 use glam::{DVec2, DVec3};
 use wavelux_geometry::{Accel, Primitive};

@@ -79,6 +79,14 @@ pub struct Statistics {
     pub kernel_evals: u64,
     /// Shadow rays.
     pub rays: u64,
+    /// Shadow rays of the transfer blocks decided on an occlusion device
+    /// ([`crate::solve_on`]; 0 on the CPU).
+    pub device_rays: u64,
+    /// Shadow rays of the device's batches answered on the CPU (its unsure answers,
+    /// rays the replay had not recorded, the batch of a device error).
+    pub deferred_rays: u64,
+    /// The occlusion device's first error (the rest of the run used the CPU).
+    pub device_failure: Option<String>,
     /// Bytes held by the hierarchy, links and solution vectors (capacity estimate).
     pub bytes: usize,
     /// Wall time of supports, accelerator and rule setup.

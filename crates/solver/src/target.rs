@@ -42,7 +42,7 @@ use crate::error::SolverError;
 use crate::estimate::{ErrorEstimate, EstimateCache, EstimateOptions, estimate_cached};
 use crate::hierarchy::{self, LinkRec, NodeKey, Oracle};
 use crate::solution::{Solution, Statistics};
-use crate::{Prepared, SolverConfig, brightness, solve_links};
+use crate::{Backends, Prepared, SolverConfig, brightness, solve_links};
 use wavelux_scene::Scene;
 
 /// The relative error the initial links aim at when the target is smaller: the
@@ -255,6 +255,19 @@ fn mean_reflected(prep: &Prepared) -> f64 {
 /// [`SolverError`] for an invalid configuration or scene, and from the solves and
 /// the estimate.
 pub fn solve_to_target(scene: &Scene, cfg: &TargetConfig) -> Result<TargetOutcome, SolverError> {
+    solve_to_target_on(scene, cfg, Backends::default())
+}
+
+/// [`solve_to_target`] on devices (see [`crate::solve_on`]): with an occlusion
+/// backend alone bitwise the same outcome, the devices' work in the statistics.
+///
+/// # Errors
+/// As [`solve_to_target`].
+pub fn solve_to_target_on(
+    scene: &Scene,
+    cfg: &TargetConfig,
+    backends: Backends<'_>,
+) -> Result<TargetOutcome, SolverError> {
     cfg.validate()?;
     let mut scfg = cfg.solver;
     scfg.oracle = Oracle::Brightness;
@@ -288,11 +301,16 @@ pub fn solve_to_target(scene: &Scene, cfg: &TargetConfig) -> Result<TargetOutcom
         ),
         tolerance,
     };
-    let ctx = prep.transfer()?;
+    let (occluder, failure) = prep.occluder(backends.occlusion);
+    let ctx = match &occluder {
+        Some(o) => prep.transfer()?.with_occluder(o.as_ref()),
+        None => prep.transfer()?,
+    };
     let patches = &prep.patches.patches;
     let params = prep.refine_params(eps);
     let mut stats = Statistics {
         time_setup: prep.setup_time(),
+        device_failure: failure,
         ..Statistics::default()
     };
     let mut rounds = Vec::new();
@@ -307,10 +325,20 @@ pub fn solve_to_target(scene: &Scene, cfg: &TargetConfig) -> Result<TargetOutcom
     let mut split_time = t_ref.elapsed();
     let mut prev: Option<Solution> = None;
     let mut cache = EstimateCache::new();
+    let mut closure_cache = crate::closure::ClosureCache::new();
     for round in 0..cfg.max_rounds {
         let (t_ref0, t_sol0) = (stats.time_refine, stats.time_solve);
         stats.stages = round + 1;
-        let sol = solve_links(&prep, &ctx, &links, prev.as_ref(), &mut stats, tolerance)?;
+        let sol = solve_links(
+            &prep,
+            &ctx,
+            &links,
+            prev.as_ref(),
+            &mut stats,
+            tolerance,
+            backends.matvec,
+            &mut closure_cache,
+        )?;
         let est = estimate_cached(&ctx, &sol, &cfg.estimate, &mut cache)?;
         let den: f64 = est.reflected_l1.iter().sum();
         rounds.push(Round {

@@ -53,10 +53,12 @@
 //! coefficients. Ziegler samples interval end points; we sample at the interval
 //! *midpoints* `(i + ½)/(ν + 1)` so that touching elements give finite samples.
 
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
 use wavelux_geometry::Accel;
+use wavelux_geometry::backend::{Occluder, OcclusionQuery};
 use wavelux_geometry::formfactor::area_form_factor;
 use wavelux_quadrature::{Corner, GaussLegendre, RuleNd, SquarePair, singular::square_pair_rule};
 
@@ -64,6 +66,7 @@ use crate::basis::TreeBasis;
 use crate::error::SolverError;
 use crate::exact::{self, Piece};
 use crate::mask::Coverage;
+use crate::replay::Rays;
 use crate::shaft::{self, Blockers};
 use crate::support::Patch;
 
@@ -186,6 +189,29 @@ pub struct TransferCtx<'a> {
     pub kernel_evals: AtomicU64,
     /// Shadow rays so far.
     pub rays: AtomicU64,
+    /// The batched occluder of the transfer blocks' shadow rays, if any
+    /// ([`Self::with_occluder`], [`crate::replay`]).
+    occluder: Option<Device<'a>>,
+    /// Shadow rays the occluder decided on its device.
+    pub device_rays: AtomicU64,
+    /// Shadow rays of the occluder's batches answered by [`Accel::occluded`] (the
+    /// device's unsure answers, rays the replay had not recorded, batches after a
+    /// device error).
+    pub deferred_rays: AtomicU64,
+}
+
+/// A batched occluder and its first failure.
+struct Device<'a> {
+    occluder: &'a dyn Occluder,
+    failure: Mutex<Option<String>>,
+}
+
+impl std::fmt::Debug for Device<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Device")
+            .field("failure", &self.failure)
+            .finish_non_exhaustive()
+    }
 }
 
 /// Separation (centre distance over the sum of the bounding-sphere radii) from which a
@@ -340,7 +366,57 @@ impl<'a> TransferCtx<'a> {
             vertex_rules,
             kernel_evals: AtomicU64::new(0),
             rays: AtomicU64::new(0),
+            occluder: None,
+            device_rays: AtomicU64::new(0),
+            deferred_rays: AtomicU64::new(0),
         })
+    }
+
+    /// The same context answering the shadow rays of [`Self::blocks_seen`] with
+    /// `occluder` (which must answer exactly as the context's accelerator does, the
+    /// contract of [`Occluder`]): blocks are recorded, answered in batches and
+    /// replayed ([`crate::replay`]), bitwise as without it. Oracle estimates, single
+    /// blocks ([`Self::block`]) and the closure's visible fractions keep asking the
+    /// accelerator.
+    pub fn with_occluder(mut self, occluder: &'a dyn Occluder) -> Self {
+        self.occluder = Some(Device {
+            occluder,
+            failure: Mutex::new(None),
+        });
+        self
+    }
+
+    /// Whether [`Self::blocks_seen`] batches its shadow rays on an occluder (so that
+    /// refinement should collect its links first and compute their blocks together).
+    pub fn batches_blocks(&self) -> bool {
+        self.occluder().is_some()
+    }
+
+    /// The occluder, unless there is none or it failed.
+    pub(crate) fn occluder(&self) -> Option<&'a dyn Occluder> {
+        let d = self.occluder.as_ref()?;
+        let failed = d.failure.lock().map(|f| f.is_some()).unwrap_or(true);
+        (!failed).then_some(d.occluder)
+    }
+
+    /// The occluder's first error, after which every block was computed on the CPU.
+    pub fn device_failure(&self) -> Option<String> {
+        let d = self.occluder.as_ref()?;
+        d.failure.lock().ok().and_then(|f| f.clone())
+    }
+
+    /// Records the occluder's error (the first one is kept).
+    pub(crate) fn fail_device(&self, message: String) {
+        if let Some(d) = &self.occluder
+            && let Ok(mut f) = d.failure.lock()
+        {
+            f.get_or_insert(message);
+        }
+    }
+
+    /// The accelerator (the reference every occluder answers like).
+    pub(crate) fn accel(&self) -> &'a Accel {
+        self.accel
     }
 
     /// The same context with shaft culling off (every block shoots all its rays), for
@@ -376,6 +452,19 @@ impl<'a> TransferCtx<'a> {
         !self
             .accel
             .occluded((x - c) / s, (y - c) / s, [Some(pr.prim), Some(pe.prim)])
+    }
+
+    /// [`Self::visible`] for the rays of a transfer block, answered as `rays` says
+    /// (directly, recorded or replayed, [`crate::replay`]).
+    #[inline]
+    fn shadow(&self, x: DVec3, pr: &Patch, y: DVec3, pe: &Patch, rays: &mut Rays<'_>) -> bool {
+        let (c, s) = self.frame;
+        let q = OcclusionQuery {
+            p: (x - c) / s,
+            q: (y - c) / s,
+            ignore: [Some(pr.prim), Some(pe.prim)],
+        };
+        rays.visible(self.accel, q)
     }
 
     /// Whether some point of `e` is strictly in front of `r`'s plane and vice versa
@@ -421,10 +510,21 @@ impl<'a> TransferCtx<'a> {
     /// each (`Unknown` when the block shot no rays: visibility off or fractional, or
     /// no sample pair faces the other).
     pub fn block_seen(&self, r: &Region, e: &Region) -> (Vec<f64>, LinkVisibility) {
+        self.block_with(r, e, &mut Rays::direct())
+    }
+
+    /// [`Self::block_seen`] with its shadow rays answered as `rays` says
+    /// ([`crate::replay`]); the record pass returns an empty block and adds nothing
+    /// to the counters.
+    pub(crate) fn block_with(
+        &self,
+        r: &Region,
+        e: &Region,
+        rays: &mut Rays<'_>,
+    ) -> (Vec<f64>, LinkVisibility) {
         let n = self.basis.n();
         let nn = n * n;
         let mut evals = 0u64;
-        let mut rays = 0u64;
         let with_vis = self.visibility == Visibility::InQuadrature;
         let cands = if with_vis {
             self.shaft_candidates(r, e, None)
@@ -437,6 +537,9 @@ impl<'a> TransferCtx<'a> {
         let ar = pr.support.area * r.h * r.h;
         let ae = pe.support.area * e.h * e.h;
         let scale = 1.0 / (ar * ae).sqrt();
+        if rays.recording() && !shoot && self.visibility != Visibility::Fractional {
+            return (Vec::new(), LinkVisibility::Unknown);
+        }
         // Piecewise constants between planar pieces that no blocker's shaft meets: the
         // block is its exact constant entry alone (visible fraction one), so the
         // quadrature, whose only use would be that fraction, is skipped.
@@ -455,7 +558,7 @@ impl<'a> TransferCtx<'a> {
         }
         // A far pair's unanimous probe stands for the block's own rays.
         let probe = if shoot && self.is_far(r, e) {
-            self.probe(r, e, &mut evals, &mut rays)
+            self.probe(r, e, &mut evals, rays)
         } else {
             None
         };
@@ -470,7 +573,7 @@ impl<'a> TransferCtx<'a> {
             cands.as_deref(),
             &mut acc,
             &mut evals,
-            &mut rays,
+            rays,
         );
         for v in &mut acc {
             *v *= scale;
@@ -494,11 +597,18 @@ impl<'a> TransferCtx<'a> {
         };
         let mut frac = None;
         if self.visibility == Visibility::Fractional {
-            let f = self.fractional_visibility(r, e, &mut rays);
+            let f = self.fractional_visibility(r, e, rays);
             for (o, u) in out.iter_mut().zip(&unocc) {
                 *o = f * u;
             }
             frac = Some(f);
+        }
+        if rays.recording() {
+            // The exact parts need no rays, except for grazing pairs.
+            if with_vis && unocc[0] <= 0.0 {
+                self.fractional_visibility(r, e, rays);
+            }
+            return (Vec::new(), LinkVisibility::Unknown);
         }
         if let Some(x) = self.exact_parts(r, e, &mut evals) {
             let alpha = match (self.visibility, frac) {
@@ -507,14 +617,14 @@ impl<'a> TransferCtx<'a> {
                 _ if unocc[0] > 0.0 => (out[0] / unocc[0]).clamp(0.0, 1.0),
                 // No Gauss sample pair faces the other (grazing pieces): the exact part
                 // is tiny; take the visible fraction of fixed rays.
-                _ => self.fractional_visibility(r, e, &mut rays),
+                _ => self.fractional_visibility(r, e, rays),
             };
             for (idx, exact) in x.entries(n) {
                 out[idx] += alpha * (exact * scale - unocc[idx]);
             }
         }
         self.kernel_evals.fetch_add(evals, Ordering::Relaxed);
-        self.rays.fetch_add(rays, Ordering::Relaxed);
+        self.rays.fetch_add(rays.count, Ordering::Relaxed);
         (out, seen)
     }
 
@@ -541,7 +651,7 @@ impl<'a> TransferCtx<'a> {
     /// shadow ray between the probe rule's points of the two nodes with a non-zero
     /// kernel is unblocked, `Some(false)` when every one is blocked, `None` when they
     /// disagree or no such pair exists.
-    fn probe(&self, r: &Region, e: &Region, evals: &mut u64, rays: &mut u64) -> Option<bool> {
+    fn probe(&self, r: &Region, e: &Region, evals: &mut u64, rays: &mut Rays<'_>) -> Option<bool> {
         let (pr, pe) = (&self.patches[r.patch], &self.patches[e.patch]);
         let (xr, _) = self.side_samples(pr, r, r, false, false, true);
         let (xe, _) = self.side_samples(pe, e, e, true, false, true);
@@ -552,7 +662,7 @@ impl<'a> TransferCtx<'a> {
                 if kernel(a.x, a.n, b.x, b.n) == 0.0 {
                     continue;
                 }
-                if self.visible(a.v, pr, b.v, pe, rays) {
+                if self.shadow(a.v, pr, b.v, pe, rays) {
                     vis = true;
                 } else {
                     blocked = true;
@@ -561,6 +671,10 @@ impl<'a> TransferCtx<'a> {
                     return None;
                 }
             }
+        }
+        if rays.recording() {
+            // Record the block's own rays too (the replay may need them).
+            return None;
         }
         match (vis, blocked) {
             (true, false) => Some(true),
@@ -579,7 +693,7 @@ impl<'a> TransferCtx<'a> {
         }
         let nn = self.basis.n() * self.basis.n();
         let mut acc = vec![0.0; 2 * nn];
-        let (mut evals, mut rays) = (0u64, 0u64);
+        let (mut evals, mut rays) = (0u64, Rays::direct());
         let cands = self.shaft_candidates(r, e, None);
         let shoot = cands.as_ref().is_none_or(|c| !c.is_empty());
         if !shoot {
@@ -599,7 +713,7 @@ impl<'a> TransferCtx<'a> {
             &mut rays,
         );
         self.kernel_evals.fetch_add(evals, Ordering::Relaxed);
-        self.rays.fetch_add(rays, Ordering::Relaxed);
+        self.rays.fetch_add(rays.count, Ordering::Relaxed);
         (acc[nn] > 0.0).then(|| (acc[0] / acc[nn]).clamp(0.0, 1.0))
     }
 
@@ -657,7 +771,12 @@ impl<'a> TransferCtx<'a> {
     /// The possible blockers of the shadow rays between the cells `r` and `e`
     /// ([`crate::shaft`]), among `within` (every primitive when `None`); `None` when
     /// the pair cannot be culled (curved or masked cells, culling off).
-    fn shaft_candidates(&self, r: &Region, e: &Region, within: Option<&[u32]>) -> Option<Vec<u32>> {
+    pub(crate) fn shaft_candidates(
+        &self,
+        r: &Region,
+        e: &Region,
+        within: Option<&[u32]>,
+    ) -> Option<Vec<u32>> {
         if !self.blockers.enabled() {
             return None;
         }
@@ -672,7 +791,7 @@ impl<'a> TransferCtx<'a> {
 
     /// Whether the shadow rays between the sub-cells `rs` and `es` must be shot:
     /// `false` when the link's candidate blockers `cands` cannot meet their shaft.
-    fn shaft_open(&self, rs: &Region, es: &Region, cands: Option<&[u32]>) -> bool {
+    pub(crate) fn shaft_open(&self, rs: &Region, es: &Region, cands: Option<&[u32]>) -> bool {
         match cands {
             None => true,
             Some([]) => false,
@@ -683,7 +802,7 @@ impl<'a> TransferCtx<'a> {
     }
 
     /// Visible fraction from 16 fixed ray pairs between 4×4 grids (Hanrahan 1991).
-    fn fractional_visibility(&self, r: &Region, e: &Region, rays: &mut u64) -> f64 {
+    fn fractional_visibility(&self, r: &Region, e: &Region, rays: &mut Rays<'_>) -> f64 {
         let pr = &self.patches[r.patch];
         let pe = &self.patches[e.patch];
         let mut vis = 0;
@@ -697,7 +816,7 @@ impl<'a> TransferCtx<'a> {
             let y = pe
                 .support
                 .visibility_point(e.s0 + e.h * sj / 4.0, e.t0 + e.h * tj / 4.0);
-            if self.visible(x, pr, y, pe, rays) {
+            if self.shadow(x, pr, y, pe, rays) {
                 vis += 1;
             }
         }
@@ -716,7 +835,7 @@ impl<'a> TransferCtx<'a> {
         cands: Option<&[u32]>,
         out: &mut [f64],
         evals: &mut u64,
-        rays: &mut u64,
+        rays: &mut Rays<'_>,
     ) {
         let pr = &self.patches[rs.patch];
         let pe = &self.patches[es.patch];
@@ -814,7 +933,7 @@ impl<'a> TransferCtx<'a> {
         with_vis: bool,
         out: &mut [f64],
         evals: &mut u64,
-        rays: &mut u64,
+        rays: &mut Rays<'_>,
     ) {
         let pr = &self.patches[rs.patch];
         let pe = &self.patches[es.patch];
@@ -937,7 +1056,7 @@ impl<'a> TransferCtx<'a> {
         with_vis: bool,
         out: &mut [f64],
         evals: &mut u64,
-        rays: &mut u64,
+        rays: &mut Rays<'_>,
     ) {
         let n = self.basis.n();
         let pr = &self.patches[rs.patch];
@@ -969,7 +1088,7 @@ impl<'a> TransferCtx<'a> {
             } else {
                 y
             };
-            let visible = !with_vis || self.visible(vx, pr, vy, pe, rays);
+            let visible = !with_vis || self.shadow(vx, pr, vy, pe, rays);
             self.basis
                 .eval((s - rn.s0) / rn.h, (t - rn.t0) / rn.h, &mut br[..n]);
             self.basis
@@ -1003,7 +1122,7 @@ impl<'a> TransferCtx<'a> {
         with_vis: bool,
         out: &mut [f64],
         evals: &mut u64,
-        rays: &mut u64,
+        rays: &mut Rays<'_>,
     ) {
         let n = self.basis.n();
         let pr = &self.patches[rs.patch];
@@ -1034,7 +1153,7 @@ impl<'a> TransferCtx<'a> {
                 for b in 0..n {
                     tu[b] += f * psi[b];
                 }
-                if !with_vis || self.visible(sr.v, pr, se.v, pe, rays) {
+                if !with_vis || self.shadow(sr.v, pr, se.v, pe, rays) {
                     for b in 0..n {
                         tv[b] += f * psi[b];
                     }

@@ -672,15 +672,18 @@ fn closed_cylinder_interior_conserves_energy() {
         "cylinder furnace: emitted {} absorbed {} escaped (rays) {:.3e} operator loss {:.3e} unshot {:.3e}",
         e.emitted[0], e.absorbed[0], e.escaped[0], e.operator_loss[0], e.unshot[0]
     );
-    // Closed: rays leave only through numerical cracks at the rims (none expected);
-    // the imbalance is the operator's row-sum error at the rims.
+    // Closed: rays leave only through numerical cracks at the rims (none expected).
+    // The imbalance is the tube's row-sum error: its links to the disks and to its
+    // other cells are exact (curved contour forms), its self links' quadrature is not,
+    // and curved receivers get no closure link (crate::closure): measured 2.8e-3 of
+    // the emission (1.0e-2 before the curved contour forms).
     assert!(
         e.escaped[0] <= 1e-3 * e.emitted[0],
         "escaped {}",
         e.escaped[0]
     );
     assert!(
-        e.imbalance()[0].abs() < 0.02 * e.emitted[0],
+        e.imbalance()[0].abs() < 5e-3 * e.emitted[0],
         "imbalance {}",
         e.imbalance()[0]
     );
@@ -825,9 +828,12 @@ fn closed_cylinder_form_factors_match_closed_forms() {
     let f_tt = 1.0 - 2.0 * f_td;
     // Measured (Haar, one link per pair): tube←tube +0.24% (Duffy rules of the
     // curved self pair; the residual is the periodic seam, a bounded but non-smooth
-    // kernel); tube↔disk +3.7% (depth 2, q 4) and −0.26% (depth 3, q 6): the
-    // junction's 1/r² edge singularity between a curved and a planar support is only
-    // split and Gauss-integrated; disk←disk +0.65% / +0.31%.
+    // kernel); tube↔disk and disk←disk independent of the rule: the blocks' constant
+    // entries are the contour forms of the curved nodes (crate::exact's
+    // Piece::Mapped), tube↔disk within 2.1e-5 (the coincident rims' panels taken as
+    // chords, crate::exact's FLAT); before them tube↔disk was +3.7% at depth 2, q 4 and
+    // −0.26% at depth 3, q 6 (the junction's edge singularity only split and
+    // Gauss-integrated).
     for (depth, q) in [(2u32, 4usize), (3, 6)] {
         let cfg = SolverConfig {
             max_level: 0,
@@ -857,11 +863,11 @@ fn closed_cylinder_form_factors_match_closed_forms() {
             f[&(1, 2)]
         );
         assert!(rel(f[&(0, 0)], f_tt) < 5e-3);
-        assert!(rel(f[&(0, 1)], f_td) < 0.05);
-        assert!(rel(f[&(1, 0)], f_dt) < 0.05);
-        assert!(rel(f[&(1, 2)], f_dd) < 0.01);
-        // Reciprocity A_t F_td = A_d F_dt holds to the same accuracy.
-        assert!(rel(TAU * r * h * f[&(0, 1)], PI * r * r * f[&(1, 0)]) < 0.05);
+        assert!(rel(f[&(0, 1)], f_td) < 1e-4, "{}", f[&(0, 1)]);
+        assert!(rel(f[&(1, 0)], f_dt) < 1e-4, "{}", f[&(1, 0)]);
+        assert!(rel(f[&(1, 2)], f_dd) < 1e-6, "{}", f[&(1, 2)]);
+        // Reciprocity A_t F_td = A_d F_dt (one symmetric contour integral).
+        assert!(rel(TAU * r * h * f[&(0, 1)], PI * r * r * f[&(1, 0)]) < 1e-9);
     }
 }
 
@@ -958,4 +964,137 @@ fn refined_blocks_on_curved_supports_are_reciprocal() {
         }
         assert!(nonzero > 0, "{}: every block was zero", basis.name());
     }
+}
+
+/// A one-sided sphere lamp (radius 0.25, centre 0.6 above the floor) over an annulus
+/// `0.2 ≤ r ≤ 1` on the floor.
+fn sphere_lamp_over_an_annulus() -> Scene {
+    let mut s = Scene::new("sphere lamp");
+    let recv = material(&mut s, "recv", 0.8, 0.0);
+    let lamp = material(&mut s, "lamp", 0.0, 5.0);
+    add(
+        &mut s,
+        "floor",
+        polygon(
+            frame(DVec3::ZERO, DVec3::X, DVec3::Y),
+            Loop::circle(DVec2::ZERO, 1.0),
+            vec![Loop::circle(DVec2::ZERO, 0.2)],
+        ),
+        recv,
+        Sidedness::OneSided,
+    );
+    add(
+        &mut s,
+        "lamp",
+        sphere(DVec3::new(0.0, 0.0, 0.6), 0.25, None),
+        lamp,
+        Sidedness::OneSided,
+    );
+    s
+}
+
+/// The exact point-to-piece form factor of every cell of a sphere (equal-area map,
+/// levels 2 and 3) seen from floor points matches a 160² midpoint rule of the clipped
+/// kernel. The cells touching a pole are the hard case: the map's radius is `√(1−w²)`
+/// with `w` linear in the parameter, so their meridians have a square-root end that an
+/// 8-point Gauss panel integrates 7 % wrong (a9290e6; it cost the solved floor of the
+/// next test 5.6 %). Cells that straddle the receiver's horizon or their own
+/// silhouette have no contour form (`None`: the quadrature keeps them); a cell none of
+/// whose sampled points sees `x` counts zero. Both are bounded here by comparing
+/// against the whole sphere's form factor.
+#[test]
+fn sphere_cells_point_form_factors_match_a_fine_rule() {
+    use wavelux_solver::exact::{Rules, piece, point_form_factor};
+    use wavelux_solver::transfer::Region;
+    let s = sphere_lamp_over_an_annulus();
+    let ps = build_patches(&s).unwrap();
+    let lamp = ps.by_surface[1][0];
+    let sup = &ps.patches[lamp].support;
+    let rules = Rules::new().unwrap();
+    let fine = |g: &Region, x: DVec3| {
+        let n = 160;
+        let mut sum = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                let (a, b) = (
+                    g.s0 + g.h * (i as f64 + 0.5) / n as f64,
+                    g.t0 + g.h * (j as f64 + 0.5) / n as f64,
+                );
+                let (y, ny) = sup.point_normal(a, b);
+                let d = y - x;
+                let r2 = d.length_squared();
+                sum += d.z.max(0.0) * (-ny.dot(d)).max(0.0) / (PI * r2 * r2);
+            }
+        }
+        sum * sup.area * g.h * g.h / (n * n) as f64
+    };
+    let mut exact_cells = 0;
+    for level in [2u32, 3] {
+        let k = 1usize << level;
+        let h = 1.0 / k as f64;
+        for x in [
+            DVec3::new(0.3, 0.0, 0.0),
+            DVec3::new(0.53, 0.29, 0.0),
+            DVec3::new(0.51, 0.8, 0.0),
+        ] {
+            let (mut total, mut worst) = (0.0, 0.0f64);
+            for c in 0..k * k {
+                let g = Region {
+                    patch: lamp,
+                    s0: (c % k) as f64 * h,
+                    t0: (c / k) as f64 * h,
+                    h,
+                };
+                let want = fine(&g, x);
+                total += want;
+                let pc = piece(&ps.patches[lamp], &g, true).expect("equal-area sphere cell");
+                if let Some(got) = point_form_factor(&ps.patches, &rules, &pc, x, DVec3::Z) {
+                    exact_cells += 1;
+                    worst = worst.max((got - want).abs());
+                }
+            }
+            assert!(
+                worst < 1e-4 * total,
+                "level {level}, x = {x}: worst cell error {worst:.3e} of F = {total:.6e}"
+            );
+        }
+    }
+    // Most cells take the contour form (the test is not vacuous).
+    assert!(exact_cells > 3 * (16 + 64) / 2, "{exact_cells} exact cells");
+}
+
+/// The sphere lamp's floor, solved: the real-area average radiosity matches the
+/// closed form `ρ E R² · 2h [1/√(h²+a₁²) − 1/√(h²+a₂²)] / (a₂² − a₁²)`. Measured
+/// −0.09 % at level 3, ε = 1e-3 (render's `solved_sphere_lamp_over_an_annulus` checks
+/// the default oracle at level 4); −5.6 % with a9290e6's pole cells.
+#[test]
+fn solved_sphere_lamp_floor_matches_the_closed_form() {
+    let s = sphere_lamp_over_an_annulus();
+    let (e, rho, radius, h, a1, a2): (f64, f64, f64, f64, f64, f64) =
+        (5.0, 0.8, 0.25, 0.6, 0.2, 1.0);
+    let exact = rho
+        * e
+        * radius
+        * radius
+        * 2.0
+        * h
+        * (1.0 / (h * h + a1 * a1).sqrt() - 1.0 / (h * h + a2 * a2).sqrt())
+        / (a2 * a2 - a1 * a1);
+    let sol = solve(
+        &s,
+        &SolverConfig {
+            max_level: 3,
+            eps: 1e-3,
+            ..SolverConfig::default()
+        },
+    )
+    .unwrap();
+    let (mut acc, mut area) = (0.0, 0.0);
+    for &p in &sol.by_surface[0] {
+        let (int, a) = sol.patch_real_integral(p);
+        acc += int[0];
+        area += a;
+    }
+    let b = acc / area;
+    assert!(rel(b, exact) < 5e-3, "floor {b} vs closed form {exact}");
 }

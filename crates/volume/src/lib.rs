@@ -134,7 +134,10 @@
 //! # Backends
 //! The projection is the [`backend::Projector`] trait with the CPU implementation
 //! [`backend::cpu::CpuProjector`] (modes `exact` and `pyramid`) and a conformance
-//! suite ([`backend::conformance`]) for every backend (wgpu comes later).
+//! suite ([`backend::conformance`]) for every backend (wgpu comes later). While an
+//! active set is relaxed, the gather is linear in the emission, so the system has the
+//! projector record it once ([`backend::Projector::record`], [`backend::Transport`])
+//! and replays it instead of re-projecting at every relaxation ([`system`] docs).
 //!
 //! # Deviations from the paper (see also `docs/architecture.md`)
 //! Exact chords instead of point-sampled slices; exact collision weights instead of
@@ -163,6 +166,9 @@ pub use error::VolumeError;
 pub use grid::VolumeGrid;
 pub use hierarchy::CoarseOpacity;
 pub use solution::{VolumeSolution, q_square, rms};
-pub use solve::{GlobalCubeConfig, Oracle, Relaxation, StepRecord, Threshold, solve};
+pub use solve::{
+    GlobalCubeConfig, Oracle, Refined, Relaxation, StepRecord, Threshold, solve,
+    solve_with_snapshots,
+};
 pub use system::Energy;
 pub use voxelize::voxelize;

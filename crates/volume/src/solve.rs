@@ -125,6 +125,11 @@ pub struct GlobalCubeConfig {
     pub escape_framebuffer: usize,
     /// Self-interaction of scattered light (default uniform).
     pub self_interaction: SelfInteraction,
+    /// Largest recorded transport per active set, bytes (default
+    /// [`crate::system::DEFAULT_TRANSPORT_MEMORY`], 1 GiB; 0 re-projects at every
+    /// relaxation). The results are the same either way up to the order of
+    /// floating-point sums ([`crate::system`] docs).
+    pub transport_memory: usize,
 }
 
 impl Default for GlobalCubeConfig {
@@ -147,6 +152,7 @@ impl Default for GlobalCubeConfig {
             max_steps: 16,
             escape_framebuffer: 8,
             self_interaction: SelfInteraction::Uniform,
+            transport_memory: crate::system::DEFAULT_TRANSPORT_MEMORY,
         }
     }
 }
@@ -221,6 +227,19 @@ pub struct StepRecord {
     pub seconds: f64,
     /// Energy account after the step (with the escape measurement).
     pub energy: Energy,
+    /// The cells split before this step and which oracle split them (GlobalCube
+    /// Fig. 14: static first, then dynamic); empty for the lowpass and final records.
+    #[serde(skip)]
+    pub refined: Vec<Refined>,
+}
+
+/// A cell an oracle split before a refinement step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Refined {
+    /// The cell (its level is the one refined from, `m + 1`).
+    pub leaf: crate::active::Leaf,
+    /// Split by the static oracle (else by the dynamic one, or by [`Oracle::None`]).
+    pub by_static: bool,
 }
 
 /// Solves `grid` with `config` on `projector`. `progress` is called after every
@@ -234,6 +253,33 @@ pub fn solve(
     projector: &dyn Projector,
     progress: &mut dyn FnMut(&StepRecord),
 ) -> Result<VolumeSolution, VolumeError> {
+    solve_observed(grid, cfg, projector, progress, None)
+}
+
+/// [`solve`], handing `snapshot` the state after the lowpass solve and after each
+/// refinement step as a [`VolumeSolution`] whose `steps` end with that record (the
+/// final solve's state is the returned solution): the progressive images of
+/// GlobalCube Figs. 13–14. Building a
+/// snapshot copies the active set and its face powers (tens of bytes per cell).
+///
+/// # Errors
+/// As [`solve`].
+pub fn solve_with_snapshots(
+    grid: &VolumeGrid,
+    cfg: &GlobalCubeConfig,
+    projector: &dyn Projector,
+    snapshot: &mut dyn FnMut(VolumeSolution),
+) -> Result<VolumeSolution, VolumeError> {
+    solve_observed(grid, cfg, projector, &mut |_| {}, Some(snapshot))
+}
+
+fn solve_observed(
+    grid: &VolumeGrid,
+    cfg: &GlobalCubeConfig,
+    projector: &dyn Projector,
+    progress: &mut dyn FnMut(&StepRecord),
+    mut snapshot: Option<&mut dyn FnMut(VolumeSolution)>,
+) -> Result<VolumeSolution, VolumeError> {
     cfg.validate()?;
     let t_all = Instant::now();
     let hierarchy = Hierarchy::new(grid, cfg.levels, cfg.coarse_opacity)?;
@@ -243,6 +289,7 @@ pub fn solve(
         framebuffer: cfg.framebuffer,
         escape_framebuffer: cfg.escape_framebuffer,
         self_interaction: cfg.self_interaction,
+        transport_memory: cfg.transport_memory,
     };
     let mut cache = WeightCache::default();
     let mut work = Work::default();
@@ -266,9 +313,23 @@ pub fn solve(
         max_update: upd,
         seconds: t.elapsed().as_secs_f64(),
         energy,
+        refined: Vec::new(),
     };
     progress(&rec);
     steps.push(rec);
+    if let Some(f) = snapshot.as_mut() {
+        f(VolumeSolution::new(
+            grid,
+            *cfg,
+            projector.name(),
+            &sys,
+            chi.clone(),
+            &collided,
+            steps.clone(),
+            work,
+            t_all.elapsed().as_secs_f64(),
+        ));
+    }
 
     // Thresholds in absolute units.
     let range = |a: &ndarray::Array3<f64>| {
@@ -292,6 +353,7 @@ pub fn solve(
     for m in (0..cfg.levels).rev() {
         // First refinement of the level: static and/or dynamic (or everything).
         let mut split = vec![false; sys.len()];
+        let mut by_static = vec![false; sys.len()];
         let (mut n_static, mut n_dynamic) = (0, 0);
         for (i, leaf) in sys.set.leaves.iter().enumerate() {
             if leaf.level as usize != m + 1 {
@@ -308,6 +370,7 @@ pub fn solve(
                 && matches!(cfg.oracle, Oracle::Dynamic | Oracle::Both)
                 && dynamic_oracle(&chi[i], thr_chi);
             split[i] = s || d;
+            by_static[i] = s;
             n_static += usize::from(s);
             n_dynamic += usize::from(d);
         }
@@ -315,6 +378,17 @@ pub fn solve(
         while n_static + n_dynamic > 0 && step < cfg.max_steps {
             step += 1;
             let t = Instant::now();
+            let refined: Vec<Refined> = sys
+                .set
+                .leaves
+                .iter()
+                .zip(split.iter().zip(&by_static))
+                .filter(|(_, (s, _))| **s)
+                .map(|(l, (_, b))| Refined {
+                    leaf: *l,
+                    by_static: *b,
+                })
+                .collect();
             let (set, origin) = sys.set.refine(&split);
             let new_sys = System::new(projector, settings, &hierarchy, grid.voxel, set, &mut cache);
             chi = initialise(&sys, &new_sys, &origin, &chi);
@@ -330,6 +404,7 @@ pub fn solve(
             let energy = sys.energy(&chi, &collided)?;
             // Dynamic oracle on the level-(m+1) leaves left.
             split = vec![false; sys.len()];
+            by_static = vec![false; sys.len()];
             let mut next_dynamic = 0;
             if matches!(cfg.oracle, Oracle::Dynamic | Oracle::Both) {
                 for (i, leaf) in sys.set.leaves.iter().enumerate() {
@@ -350,9 +425,23 @@ pub fn solve(
                 max_update: upd,
                 seconds: t.elapsed().as_secs_f64(),
                 energy,
+                refined,
             };
             progress(&rec);
             steps.push(rec);
+            if let Some(f) = snapshot.as_mut() {
+                f(VolumeSolution::new(
+                    grid,
+                    *cfg,
+                    projector.name(),
+                    &sys,
+                    chi.clone(),
+                    &collided,
+                    steps.clone(),
+                    work,
+                    t_all.elapsed().as_secs_f64(),
+                ));
+            }
             n_static = 0;
             n_dynamic = next_dynamic;
         }
@@ -374,6 +463,7 @@ pub fn solve(
         max_update: upd,
         seconds: t.elapsed().as_secs_f64(),
         energy,
+        refined: Vec::new(),
     };
     progress(&rec);
     steps.push(rec);

@@ -20,11 +20,20 @@
 //! F_ij`, scattered light re-colliding with the probability `π_p` of light born
 //! uniformly in the cell; energy is conserved: absorbed + scattered out = collided
 //! from outside).
+//!
+//! Recorded transport: the gather is linear in the emission coefficients while the
+//! active set (so every opacity) stays fixed. After one full sweep through the
+//! projector, the system asks it to record that map ([`Projector::record`],
+//! [`crate::backend::Transport`]) within [`SystemSettings::transport_memory`] bytes;
+//! every later gather of the set is then a sparse product instead of a new projection.
+//! A set that is applied once (a refinement step with one relaxation) never records.
 
 use std::time::Instant;
 
 use crate::active::{ActiveSet, LeafData, Traversal, WeightCache};
-use crate::backend::{Emission, FaceRgb, GatherStats, ProjectionScene, Projector, Receiver};
+use crate::backend::{
+    Emission, FaceRgb, GatherStats, ProjectionScene, Projector, Receiver, Transport,
+};
 use crate::cell::{Collision, GammaMode, SelfInteraction};
 use crate::error::VolumeError;
 use crate::flight::{Routing, routing};
@@ -44,7 +53,12 @@ pub struct SystemSettings {
     pub escape_framebuffer: usize,
     /// Self-interaction of scattered light.
     pub self_interaction: SelfInteraction,
+    /// Largest recorded transport (bytes; 0: never record, every gather projects).
+    pub transport_memory: usize,
 }
+
+/// Default [`SystemSettings::transport_memory`]: 1 GiB.
+pub const DEFAULT_TRANSPORT_MEMORY: usize = 1 << 30;
 
 impl Default for SystemSettings {
     fn default() -> Self {
@@ -54,6 +68,7 @@ impl Default for SystemSettings {
             framebuffer: 32,
             escape_framebuffer: 8,
             self_interaction: SelfInteraction::Uniform,
+            transport_memory: DEFAULT_TRANSPORT_MEMORY,
         }
     }
 }
@@ -109,6 +124,10 @@ pub struct System<'a> {
     /// Per leaf and channel: how it turns collided power into collisions and face
     /// powers ([`crate::flight::routing`]).
     pub routing: Vec<[Routing; 3]>,
+    /// The recorded transport, once asked for (`None` inside: the projector declined).
+    transport: std::sync::OnceLock<Option<Transport>>,
+    /// Receivers gathered through the projector so far.
+    gathered: std::sync::atomic::AtomicUsize,
 }
 
 /// Work and time of applications of `K`.
@@ -118,8 +137,14 @@ pub struct Work {
     pub gather: GatherStats,
     /// Applications of `K` (full sweeps).
     pub applications: u64,
-    /// Seconds spent in the projector.
+    /// Seconds spent in the projector (recording included).
     pub projector_seconds: f64,
+    /// Transports recorded ([`crate::backend::Transport`], one per active set at most).
+    pub recorded: u64,
+    /// Entries of the transports recorded.
+    pub transport_entries: u64,
+    /// Receiver gathers answered by a recorded transport instead of the projector.
+    pub replayed: u64,
 }
 
 impl<'a> System<'a> {
@@ -182,7 +207,37 @@ impl<'a> System<'a> {
             receiver_of,
             sources,
             routing,
+            transport: std::sync::OnceLock::new(),
+            gathered: std::sync::atomic::AtomicUsize::new(0),
         }
+    }
+
+    /// The recorded transport, recording it when one full sweep has gone through the
+    /// projector already (module docs); `None` while it has not, or when the
+    /// projector declines.
+    fn transport(&self, work: &mut Work) -> Result<Option<&Transport>, VolumeError> {
+        use std::sync::atomic::Ordering;
+        if let Some(t) = self.transport.get() {
+            return Ok(t.as_ref());
+        }
+        if self.settings.transport_memory == 0
+            || self.gathered.load(Ordering::Relaxed) < self.receivers.len()
+        {
+            return Ok(None);
+        }
+        let t0 = Instant::now();
+        let t = self.projector.record(
+            &self.scene(),
+            self.settings.collision,
+            &self.receivers,
+            self.settings.transport_memory,
+        )?;
+        work.projector_seconds += t0.elapsed().as_secs_f64();
+        if let Some(t) = &t {
+            work.recorded += 1;
+            work.transport_entries += t.entries() as u64;
+        }
+        Ok(self.transport.get_or_init(|| t).as_ref())
     }
 
     /// Number of leaves.
@@ -261,19 +316,28 @@ impl<'a> System<'a> {
     ) -> Result<Vec<FaceRgb>, VolumeError> {
         let mut out = vec![[[0.0; 3]; 6]; range.len()];
         let first = range.start;
-        let t = Instant::now();
-        let stats = self.projector.gather(
-            &self.scene(),
-            &Emission {
-                coefficients: e,
-                power: p,
-            },
-            self.settings.collision,
-            &self.receivers[range],
-            &mut out,
-        )?;
-        work.gather += stats;
-        work.projector_seconds += t.elapsed().as_secs_f64();
+        if let Some(tr) = self.transport(work)? {
+            let t = Instant::now();
+            tr.apply(e, range.clone(), &mut out)?;
+            work.replayed += range.len() as u64;
+            work.projector_seconds += t.elapsed().as_secs_f64();
+        } else {
+            let t = Instant::now();
+            let stats = self.projector.gather(
+                &self.scene(),
+                &Emission {
+                    coefficients: e,
+                    power: p,
+                },
+                self.settings.collision,
+                &self.receivers[range.clone()],
+                &mut out,
+            )?;
+            self.gathered
+                .fetch_add(range.len(), std::sync::atomic::Ordering::Relaxed);
+            work.gather += stats;
+            work.projector_seconds += t.elapsed().as_secs_f64();
+        }
         for (k, c) in out.iter_mut().enumerate() {
             self.to_total(self.receivers[first + k].cell as usize, c);
         }
@@ -480,6 +544,9 @@ impl<'a> System<'a> {
         work.gather += inner.gather;
         work.applications += inner.applications;
         work.projector_seconds += inner.projector_seconds;
+        work.recorded += inner.recorded;
+        work.transport_entries += inner.transport_entries;
+        work.replayed += inner.replayed;
         let new = unflatten(&sol.x);
         chi.copy_from_slice(&new);
         let rel = sol.history.final_relative_residual;

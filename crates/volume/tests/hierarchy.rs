@@ -12,7 +12,7 @@ use wavelux_volume::hierarchy::{CoarseOpacity, Hierarchy};
 use wavelux_volume::system::{System, SystemSettings, Work};
 use wavelux_volume::{
     CpuProjector, GlobalCubeConfig, Oracle, Projection, Relaxation, Threshold, VolumeGrid,
-    VolumeSolution, solve,
+    VolumeSolution, solve, solve_with_snapshots,
 };
 
 fn proj() -> CpuProjector {
@@ -126,7 +126,15 @@ fn records_are_consistent_and_energy_is_accounted() {
         assert!(w[1].elements >= w[0].elements);
         let grown = w[1].elements - w[0].elements;
         assert_eq!(grown, 7 * (w[1].static_refined + w[1].dynamic_refined));
+        let r = &w[1].refined;
+        assert_eq!(r.len(), w[1].static_refined + w[1].dynamic_refined);
+        assert_eq!(
+            r.iter().filter(|c| c.by_static).count(),
+            w[1].static_refined
+        );
+        assert!(r.iter().all(|c| c.leaf.level as usize == w[1].level + 1));
     }
+    assert!(s.steps.iter().any(|st| !st.refined.is_empty()));
     let e = s.energy;
     for c in 0..3 {
         assert!((e.emitted[c] - g.source_power()[c]).abs() < 1e-9 * e.emitted[c]);
@@ -134,6 +142,88 @@ fn records_are_consistent_and_energy_is_accounted() {
         // The discrete transport is not exactly conservative; at N = 6 it is close.
         assert!(e.balance_error()[c].abs() < 0.1, "{:?}", e.balance_error());
     }
+}
+
+#[test]
+fn snapshots_follow_the_records_and_end_at_the_solution() {
+    let g = room();
+    let cfg = GlobalCubeConfig {
+        levels: 2,
+        framebuffer: 4,
+        ..GlobalCubeConfig::default()
+    }
+    .with_threshold(13.0);
+    let mut snaps = Vec::new();
+    let s = solve_with_snapshots(&g, &cfg, &proj(), &mut |v| snaps.push(v)).unwrap();
+    // Deterministic: observing changes nothing.
+    let plain = run(&g, &cfg);
+    assert_eq!(s.chi, plain.chi);
+    assert_eq!(s.elements(), plain.elements());
+    // One snapshot per record but the final one, each ending with its record.
+    assert_eq!(snaps.len() + 1, s.steps.len());
+    for (k, v) in snaps.iter().enumerate() {
+        assert_eq!(v.steps.len(), k + 1);
+        assert_eq!(v.steps[k].kind, s.steps[k].kind);
+        assert_eq!(v.elements(), s.steps[k].elements);
+        assert_eq!(v.chi.len(), v.elements());
+        let e = v.collided_per_voxel();
+        assert!(
+            e.iter()
+                .all(|c| c.iter().all(|x| x.is_finite() && *x >= 0.0))
+        );
+    }
+    assert_eq!(snaps[0].elements(), 8);
+    assert_eq!(snaps.last().unwrap().elements(), s.elements());
+}
+
+#[test]
+fn recorded_transport_gives_the_projected_solution() {
+    // Jacobi to a tight tolerance applies each set many times: with the recorded
+    // transport only the first sweep of a set projects.
+    let g = room();
+    let base = GlobalCubeConfig {
+        levels: 1,
+        framebuffer: 4,
+        tolerance: 1e-8,
+        ..GlobalCubeConfig::default()
+    }
+    .with_threshold(13.0);
+    let recorded = run(&g, &base);
+    let projected = run(
+        &g,
+        &GlobalCubeConfig {
+            transport_memory: 0,
+            ..base
+        },
+    );
+    assert!(recorded.work.recorded >= 1 && recorded.work.replayed > 0);
+    assert_eq!(projected.work.recorded, 0);
+    assert_eq!(projected.work.replayed, 0);
+    assert!(recorded.work.gather.rays < projected.work.gather.rays / 4);
+    assert_eq!(recorded.elements(), projected.elements());
+    let scale = projected
+        .chi
+        .iter()
+        .flatten()
+        .flatten()
+        .fold(0.0f64, |m, &v| m.max(v));
+    for (a, b) in recorded.chi.iter().zip(&projected.chi) {
+        for (fa, fb) in a.iter().zip(b) {
+            for c in 0..3 {
+                assert!((fa[c] - fb[c]).abs() <= 1e-10 * scale, "{fa:?} {fb:?}");
+            }
+        }
+    }
+    // A budget too small for any transport: the solve re-projects.
+    let tiny = run(
+        &g,
+        &GlobalCubeConfig {
+            transport_memory: 1,
+            ..base
+        },
+    );
+    assert_eq!(tiny.work.recorded, 0);
+    assert_eq!(tiny.chi, projected.chi);
 }
 
 #[test]

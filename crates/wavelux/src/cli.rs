@@ -459,6 +459,10 @@ pub struct MeshlessArgs {
     /// Meshless: how eps applies to a sender's level.
     #[arg(long, value_enum, default_value_t = LinkThresholdArg::Uniform)]
     pub link_threshold: LinkThresholdArg,
+    /// Meshless: largest share of a level-0 receiver's gathered link mass that eps may
+    /// drop (0..=1; ours) [default: none, eps alone].
+    #[arg(long)]
+    pub max_dropped_share: Option<f64>,
     /// Meshless: viewpoint x,y,z of point placement [default: the scene's first camera,
     /// else the centre of its bounds].
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]

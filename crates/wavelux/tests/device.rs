@@ -297,3 +297,134 @@ fn relight_on_the_gpu_agrees_with_the_cpu() -> Result<()> {
     }
     Ok(())
 }
+
+/// The surface method's shadow rays on the GPU (recorded, answered in batches by
+/// `GpuOcclusion`, replayed): the Cornell box (Haar, the target-error loop) and
+/// Ziegler's occluded scene (M2, fixed threshold) at quick settings give the CPU's
+/// JSON bitwise, apart from times, the device and its ray counts.
+#[cfg(feature = "gpu")]
+#[test]
+fn the_surface_method_on_the_gpu_is_bitwise_the_cpu() -> Result<()> {
+    if adapter().is_none() {
+        return Ok(());
+    }
+    let dir = tempfile::tempdir()?;
+    let cases: [(&str, &str, &[&str]); 2] = [
+        (
+            "builtin:cornell-box",
+            "cornell",
+            &["--target-error", "0.2", "--max-level", "2"],
+        ),
+        (
+            "builtin:ziegler-occluded",
+            "ziegler-occluded",
+            &["--basis", "m2", "--eps", "5e-3", "--max-level", "2"],
+        ),
+    ];
+    for (scene, stem, extra) in cases {
+        let json = |device: &str| -> Result<Value> {
+            let mut args = vec!["solve", scene, "--no-image", "--quiet", "--out", "out"];
+            args.extend_from_slice(extra);
+            args.extend_from_slice(&["--device", device]);
+            common::succeeds(&args, dir.path())?;
+            let text = std::fs::read_to_string(dir.path().join(format!("out/{stem}.json")))?;
+            Ok(serde_json::from_str(&text)?)
+        };
+        let (cpu, gpu) = (json("cpu")?, json("gpu")?);
+        let d = &gpu["method"]["device"];
+        assert_eq!(d["used"], "gpu", "{d}");
+        let s = &gpu["statistics"];
+        let (dev, def) = (
+            s["device_rays"].as_u64().context("device_rays")?,
+            s["deferred_rays"].as_u64().context("deferred_rays")?,
+        );
+        eprintln!(
+            "{scene}: device rays {dev}, deferred {def}, of {}",
+            s["solver_rays"]
+        );
+        assert!(dev > 0, "{s}");
+        assert_eq!(cpu["surfaces"], gpu["surfaces"]);
+        for key in [
+            "solver_rays",
+            "kernel_evaluations",
+            "oracle_evaluations",
+            "elements",
+            "leaves",
+            "links",
+            "iterations",
+            "residual_history",
+            "energy",
+        ] {
+            assert_eq!(cpu["statistics"][key], gpu["statistics"][key], "{key}");
+        }
+        let target = |v: &Value| -> Value {
+            let mut t = v["statistics"]["target"].clone();
+            if let Some(rounds) = t["rounds"].as_array_mut() {
+                for r in rounds {
+                    for k in ["time_refine_s", "time_solve_s", "time_estimate_s"] {
+                        r[k] = Value::Null;
+                    }
+                }
+            }
+            t
+        };
+        assert_eq!(target(&cpu), target(&gpu));
+    }
+    Ok(())
+}
+
+/// The surface solver's non-standard gather of Ziegler's occluded scene on the GPU (`GpuMatVec`, f32 with
+/// compensated sums, `wavelux_solver::matvec`): GMRES on the device, then iterative
+/// refinement in f64 meets the tolerance 1e-10 on the f64 operator, and the solution
+/// agrees with the CPU's to 1e-8 of its largest coefficient.
+#[cfg(feature = "gpu")]
+#[test]
+fn the_gather_on_the_gpu_is_refined_to_the_tolerance() -> Result<()> {
+    use wavelux::solver::{Backends, LinearMethod, SolverConfig, solve_on};
+    let Some(gpu) = adapter() else {
+        return Ok(());
+    };
+    let mv = wavelux::gpu::GpuMatVec::new(gpu);
+    let scene = wavelux::scene::builtin::occluded();
+    let cfg = SolverConfig {
+        eps: 5e-3,
+        max_level: 2,
+        linear_method: LinearMethod::Gmres { restart: 30 },
+        tolerance: 1e-10,
+        ..SolverConfig::default()
+    };
+    let cpu = solve_on(&scene, &cfg, Backends::default())?;
+    let dev = solve_on(
+        &scene,
+        &cfg,
+        Backends {
+            matvec: Some(&mv),
+            ..Backends::default()
+        },
+    )?;
+    assert!(
+        dev.stats.device_failure.is_none(),
+        "{:?}",
+        dev.stats.device_failure
+    );
+    for c in &dev.convergence {
+        eprintln!(
+            "  GPU gather: {} records, final f64 relative residual {:.2e}",
+            c.iterations.len(),
+            c.final_relative_residual
+        );
+        assert!(c.converged && c.final_relative_residual <= cfg.tolerance);
+    }
+    let (a, b): (Vec<f64>, Vec<f64>) = (
+        (0..3).flat_map(|c| cpu.leaf_coefficients(c)).collect(),
+        (0..3).flat_map(|c| dev.leaf_coefficients(c)).collect(),
+    );
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let diff = a
+        .iter()
+        .zip(&b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    eprintln!("  max |x_gpu - x_cpu| / max |x_cpu| = {:.2e}", diff / scale);
+    assert!(diff <= 1e-8 * scale, "{:e}", diff / scale);
+    Ok(())
+}

@@ -49,8 +49,10 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     let cfg = GlobalCubeConfig {
         levels: 2,
         // The paper's 16², 32², 64² projection planes at m0+2, m0+1, m0 are side >> level
-        // at 64³; capped at 16 (full, 32³: 8, 16, 16) and 4 (quick, 16³: 4, 4, 4).
-        framebuffer: if ctx.quick { 4 } else { 16 },
+        // at 64³; capped at 4 (full, 32³, and quick, 16³: 4, 4, 4): at 32³ the level-0
+        // transport with N = 8 or 16 exceeds the recorded transport's 1 GiB, and a
+        // re-projected solve took more than 15 min (dev profile, N = 16, 2026-11-25).
+        framebuffer: 4,
         ..GlobalCubeConfig::default()
     }
     .with_threshold(33.0);

@@ -22,11 +22,11 @@
 //! and measure every image against the glossy path tracer's image of the same view.
 
 use super::glossy_3_5::Curve;
+use crate::cpu::Stopwatch;
 use crate::report::{Figure, Report, Row, Table, Tolerance};
 use crate::reproduce::Ctx;
 use rand_pcg::Pcg64;
 use std::f64::consts::{FRAC_PI_2, PI};
-use std::time::Instant;
 use wavelux::geometry::{Accel, Hit};
 use wavelux::glossy::{
     GatherMode, GlossyConfig, GlossyScene, GlossySolution, ImportanceSource, TransportOptions,
@@ -503,9 +503,9 @@ fn run_one(st: &Setup<'_>, importance: ImportanceSource) -> anyhow::Result<Run> 
         max_links: st.max_links,
         ..GlossyConfig::default()
     };
-    let t0 = Instant::now();
+    let t0 = Stopwatch::start();
     let mut sol = GlossySolution::new(st.scene, "glossy-fig16", cfg)?;
-    let mut solve_secs = t0.elapsed().as_secs_f64();
+    let mut solve_secs = t0.elapsed().cpu_or_wall();
     let mut curve = Curve { points: Vec::new() };
     let mut table = Vec::new();
     let mut round = 0;
@@ -538,11 +538,11 @@ fn run_one(st: &Setup<'_>, importance: ImportanceSource) -> anyhow::Result<Run> 
         if round == st.rounds {
             break img;
         }
-        let t1 = Instant::now();
+        let t1 = Stopwatch::start();
         let Some(rs) = sol.refine_round()? else {
             break img;
         };
-        solve_secs += t1.elapsed().as_secs_f64();
+        solve_secs += t1.elapsed().cpu_or_wall();
         round = rs.round;
     };
     Ok(Run {
@@ -642,7 +642,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         &ImportanceSource::Off,
     )?;
     let tracer = GlossyTracer::new(&traced);
-    let t_ref = Instant::now();
+    let t_ref = Stopwatch::start();
     let halves: Vec<Image> = [11u64, 12]
         .into_iter()
         .map(|seed| {
@@ -664,7 +664,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             )
         })
         .collect::<Result<_, _>>()?;
-    let ref_secs = t_ref.elapsed().as_secs_f64();
+    let ref_secs = t_ref.elapsed().cpu_or_wall();
     let mut reference = Image::new(w, h);
     for (i, p) in reference.pixels.iter_mut().enumerate() {
         *p = std::array::from_fn(|c| 0.5 * (halves[0].pixels[i][c] + halves[1].pixels[i][c]));
@@ -788,8 +788,8 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             Tolerance::Info,
         )
         .comment(format!(
-            "initial {t_initial:.2} s, refining {t_refine:.2} s ({rounds} rounds); paper 5 \
-             min and 100 min (six rounds)"
+            "initial {t_initial:.2} s, refining {t_refine:.2} s ({rounds} rounds; the \
+             solver's own wall-clock phase times); paper 5 min and 100 min (six rounds)"
         )),
     );
     let power = |p: [f64; 3]| p.iter().sum::<f64>();
@@ -818,7 +818,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         "links".into(),
         "kernel samples (cumulative)".into(),
         "image relative L1 error".into(),
-        "cumulative solve s".into(),
+        "cumulative solve CPU s".into(),
     ];
     r.tables.push(Table {
         title: "Importance off: image error against the tracer per round".into(),
@@ -839,7 +839,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             Tolerance::Info,
         )
         .comment(format!(
-            "{kept} pixels kept of {}; reference {ref_secs:.1} s",
+            "{kept} pixels kept of {}; reference {ref_secs:.1} CPU s",
             w * h
         )),
     );
@@ -876,7 +876,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     let conclusive = spread(&e_on).max(spread(&e_off)) > 2.0 * noise;
     r.rows.push(
         Row::new(
-            "solve time with importance / without, at equal image error (paper: < 1)",
+            "solve CPU time with importance / without, at equal image error (paper: < 1)",
             None,
             t_on / t_off,
             "",
@@ -887,7 +887,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             },
         )
         .comment(format!(
-            "{}importance {t_on:.2} s, none {t_off:.2} s, same run; links {:.0} vs {:.0}",
+            "{}importance {t_on:.2} CPU s, none {t_off:.2} CPU s, same run; links {:.0} vs {:.0}",
             if conclusive {
                 ""
             } else {
@@ -903,7 +903,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     // (the complete gather sends rays to every node of every patch), against the
     // reference and the direct image at the same size.
     let small = View::new(&camera, w / factor, h / factor)?;
-    let t = Instant::now();
+    let t = Stopwatch::start();
     let direct_small = render_radiance(
         &GlossyField {
             solution: &on.sol,
@@ -913,11 +913,11 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         &image_opts(),
         &|_| {},
     )?;
-    let direct_secs = t.elapsed().as_secs_f64();
+    let direct_secs = t.elapsed().cpu_or_wall();
     let (direct_err, _) = direct_small.reflected_relative_l1(&ref_small, &mask_small)?;
     let mut gathers = Vec::new();
     for mode in [GatherMode::All, GatherMode::Linked, GatherMode::Root] {
-        let t = Instant::now();
+        let t = Stopwatch::start();
         let img = render_radiance(
             &GlossyField {
                 solution: &on.sol,
@@ -927,7 +927,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             &image_opts(),
             &|_| {},
         )?;
-        let secs = t.elapsed().as_secs_f64();
+        let secs = t.elapsed().cpu_or_wall();
         let (e, _) = img.reflected_relative_l1(&ref_small, &mask_small)?;
         gathers.push((mode, e, secs, img));
     }
@@ -941,7 +941,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
                 Tolerance::Info,
             )
             .comment(format!(
-                "{secs:.2} s, {:.1}× the direct image's {direct_secs:.3} s (direct error \
+                "{secs:.2} CPU s, {:.1}× the direct image's {direct_secs:.3} CPU s (direct error \
                  {direct_err:.4}, same size)",
                 secs / direct_secs
             )),

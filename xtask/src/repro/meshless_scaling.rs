@@ -118,6 +118,91 @@ fn config(s: &Sizes, r: f64, eps: f64) -> MeshlessConfig {
     }
 }
 
+/// Level-0 dropped share of the bounded runs (ours, registered before their first
+/// full run: `MeshlessConfig::max_dropped_share`).
+const SHARE: f64 = 0.1;
+
+/// The point sweep again with each level-0 receiver's dropped links bounded to
+/// [`SHARE`] of its gathered mass: whether the error then falls with `R_coarse`, and
+/// the error target at ε = 0.005 with the bound. `seed` holds the point sweep's runs
+/// (the seed's criteria alone), finest last.
+#[allow(clippy::too_many_arguments)] // reason: the reproduction's shared inputs
+fn share_sweep(
+    scene: &Scene,
+    query: &SceneSurfaces,
+    s: &Sizes,
+    points: &[ViewPoint],
+    reference: &[([f64; 3], [f64; 3])],
+    seed: &[Run],
+    quick: bool,
+    r: &mut Report,
+    table: &mut Vec<Vec<String>>,
+) -> anyhow::Result<()> {
+    let label = format!("level-0 dropped share ≤ {SHARE}");
+    let mut runs = Vec::new();
+    for &rc in &s.r_sweep {
+        let cfg = MeshlessConfig {
+            max_dropped_share: Some(SHARE),
+            ..config(s, rc, 0.005)
+        };
+        let (run, _) = run_one(scene, query, &cfg, s, points, reference)?;
+        table.push(run_row(
+            format!("R_coarse = {rc} m, ε = 0.005, {label}"),
+            &run,
+        ));
+        runs.push(run);
+    }
+    let list =
+        |v: &[Run], f: &dyn Fn(&Run) -> String| v.iter().map(f).collect::<Vec<_>>().join(", ");
+    r.rows.push(
+        Row::new(
+            format!("indirect error at the finest / coarsest R_coarse, {label}"),
+            None,
+            runs[2].l1 / runs[0].l1,
+            "",
+            Tolerance::AtMost(1.0),
+        )
+        .comment(format!(
+            "the error falls as R_coarse shrinks: {} at R_coarse {:?} m (energy {}); the \
+             seed's criteria alone: {} (energy {})",
+            list(&runs, &|q| format!("{:.2} %", 100.0 * q.l1)),
+            s.r_sweep,
+            list(&runs, &|q| format!("{:.3}", q.energy)),
+            list(seed, &|q| format!("{:.2} %", 100.0 * q.l1)),
+            list(seed, &|q| format!("{:.3}", q.energy)),
+        )),
+    );
+    let (fine, fine_seed) = (&runs[2], &seed[2]);
+    r.rows.push(
+        Row::new(
+            format!("indirect relative L1 vs path tracer, Cornell box, ε = 0.005, {label}"),
+            Some(0.05),
+            fine.l1,
+            "",
+            // The quick run's reference (noise floor ≈ 3.2 %) is most of the budget.
+            if quick {
+                Tolerance::Info
+            } else {
+                Tolerance::AtMost(0.05)
+            },
+        )
+        .comment(format!(
+            "issue 15's target with the bound (ours; info in the quick run, whose \
+             reference noise takes most of the 5 %); energy {:.3}, {} links in T, {} in S, \
+             precompute {:.1} s (the seed's criteria: {:.3}, {}, {}, {:.1} s)",
+            fine.energy,
+            fine.t_links,
+            fine.s_links,
+            fine.seconds,
+            fine_seed.energy,
+            fine_seed.t_links,
+            fine_seed.s_links,
+            fine_seed.seconds
+        )),
+    );
+    Ok(())
+}
+
 /// One precomputation, relit by the scene's own lighting, measured at the points.
 #[derive(Clone)]
 struct Run {
@@ -240,7 +325,10 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         the hierarchy at ε = 0.005, one bounce. What bounds the error target (ours): the \
         same configuration with a second seed (point placement and gather strata), and \
         its error split by the points' distance to the box's other faces (walls, floor, \
-        ceiling, open front). Reduced sizes (levels, gather rays, \
+        ceiling, open front). The point sweep is repeated with each level-0 receiver's \
+        links dropped by the criteria bounded to {SHARE} of its gathered mass \
+        (`max_dropped_share`, ours: the seed's uniform ε drops more of a finer level 0's \
+        links, each ∝ R_coarse²). Reduced sizes (levels, gather rays, \
         points) are ours, for the shared 2-core machine; the quick run is smaller still.",
         points.len(),
         s.paths,
@@ -301,6 +389,10 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             Some(1.0),
             t_exp,
             "",
+            // Issue 15 asks for an exponent ≈ 1 against a flat method's 2. The band
+            // admits O(n log n) (local exponent 1 + 1/ln n ≈ 1.15 at the sweep's few
+            // hundred to few thousand receivers) and stays well short of half the way
+            // to 2 (1.5): a judgment between those two, not a measured accuracy.
             Tolerance::Absolute(0.35),
         )
         .comment("issue 15: links follow the receivers, not their square"),
@@ -483,6 +575,9 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         );
         table.push(run_row(format!("R_coarse = {} m, {label}", s.r_eps), &run));
     }
+    share_sweep(
+        &scene, &query, s, &points, &reference, &sweep, ctx.quick, &mut r, &mut table,
+    )?;
     let (lo, hi) = query.bounds();
     for (band, a, b) in EDGE_BANDS {
         let keep: Vec<usize> = (0..points.len())
@@ -612,9 +707,17 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             None,
             hd,
             "",
-            Tolerance::AtMost(0.10),
+            // Derived: the dense one-level transfer at the hierarchy's finest points is
+            // the operator without the threshold's truncation, and issue 15 states the
+            // method's accuracy at ε = 0.005 as ≤ 5 % (Cornell box, against the path
+            // tracer, every error included); the truncation alone can then not exceed
+            // it. (Was 10 %, a judgment.)
+            Tolerance::AtMost(0.05),
         )
-        .comment("the hierarchy at ε = 0.005 reproduces the dense transfer"),
+        .comment(
+            "the hierarchy at ε = 0.005 reproduces the dense transfer within issue 15's \
+             5 % at that ε",
+        ),
     );
 
     r.tables.push(Table {

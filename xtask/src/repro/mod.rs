@@ -12,6 +12,7 @@ use crate::reproduce::Ctx;
 mod cornell_faces;
 mod default_bias;
 mod global_cube_fig10;
+mod global_cube_fig13;
 mod global_cube_fig9;
 mod global_cube_mc;
 mod global_cube_table1;
@@ -213,6 +214,13 @@ pub fn all() -> Vec<Reproduction> {
             seed_file: "000_eb64a2a0d4770757.txt",
             title: "Hierarchical vs standard global cube across oracle thresholds",
             run: global_cube_fig10::run,
+        },
+        Reproduction {
+            id: "global-cube-fig13",
+            source: "GlobalCube §5, Figs. 13–14",
+            seed_file: "000_eb64a2a0d4770757.txt",
+            title: "Progressive refinement of the lounge: snapshots, back-wall slices, static vs dynamic splits",
+            run: global_cube_fig13::run,
         },
         Reproduction {
             id: "global-cube-mc",

@@ -178,6 +178,32 @@ the natural ones 304/402/755 s and 18.3 Mb."
         we_did: we_did_text(&scene, files, curved, trimmed, &cfg),
         ..Report::default()
     };
+    record_params(&mut rep, &scene, files, curved, &cfg, ctx.quick);
+    cost_rows(&mut rep, &constant, &natural);
+    solution_rows(&mut rep, &scene, &cfg, &constant, &natural)?;
+    convergence_rows(&mut rep, &constant, &natural);
+    rep.tables.push(side_by_side(&constant, &natural));
+    rep.figures.push(convergence_figure(
+        ctx,
+        "convergence.svg",
+        "Chess set: constant vs natural Jacobian (M2)",
+        &[
+            ("constant Jacobian", &constant),
+            ("natural 10×10", &natural[1]),
+        ],
+    )?);
+    Ok(rep)
+}
+
+/// The run's parameters, for the report.
+fn record_params(
+    rep: &mut Report,
+    scene: &Scene,
+    files: usize,
+    curved: usize,
+    cfg: &ShootConfig,
+    quick: bool,
+) {
     rep.param("chess files", files);
     rep.param("surfaces", scene.surfaces.len());
     rep.param("curved surfaces", curved);
@@ -186,8 +212,11 @@ the natural ones 304/402/755 s and 18.3 Mb."
     rep.param("eps", cfg.eps);
     rep.param("max level", cfg.max_level);
     rep.param("min element area (m²)", cfg.min_area);
-    rep.param("quick", ctx.quick);
+    rep.param("quick", quick);
+}
 
+/// Table 3's time and memory ratios, natural against constant Jacobian.
+fn cost_rows(rep: &mut Report, constant: &Measured, natural: &[Measured]) {
     let time_comment = "CPU time of each run (all threads), all runs in one process; compare the \
                      ratio";
     for (k, g) in GAUSS.iter().enumerate() {
@@ -198,7 +227,7 @@ the natural ones 304/402/755 s and 18.3 Mb."
                 &natural[k],
                 Some(PAPER_NATURAL_TIME[k]),
             ),
-            ("constant Jacobian", &constant, Some(PAPER_CONSTANT_TIME)),
+            ("constant Jacobian", constant, Some(PAPER_CONSTANT_TIME)),
             2.0,
             Some(time_comment),
         );
@@ -211,7 +240,7 @@ the natural ones 304/402/755 s and 18.3 Mb."
     let mem = ratio_rows(
         Quantity::Memory,
         ("natural 5×5", &natural[0], Some(PAPER_MEMORY[0])),
-        ("constant Jacobian", &constant, Some(PAPER_MEMORY[1])),
+        ("constant Jacobian", constant, Some(PAPER_MEMORY[1])),
         2.0,
         Some(
             "ours counts the solver's bytes, including the per-element push/pull matrices the \
@@ -219,8 +248,19 @@ the natural ones 304/402/755 s and 18.3 Mb."
         ),
     );
     rep.rows.extend(mem);
+}
+
+/// What the Gauss order changes: the solutions against each other and the push/pull
+/// matrices against the 30 × 30 rule.
+fn solution_rows(
+    rep: &mut Report,
+    scene: &Scene,
+    cfg: &ShootConfig,
+    constant: &Measured,
+    natural: &[Measured],
+) -> anyhow::Result<()> {
     for (k, g) in GAUSS.iter().enumerate() {
-        let d = surface_difference(&natural[k], &constant);
+        let d = surface_difference(&natural[k], constant);
         rep.rows.push(
             Row::new(
                 format!("solution difference natural {g}×{g} vs constant (relative L1)"),
@@ -254,7 +294,7 @@ the natural ones 304/402/755 s and 18.3 Mb."
     );
     // The mechanism, measured on the operators: how far each Gauss order's push/pull
     // matrices are from the 30 × 30 ones on the curved patches.
-    for (g, d) in push_pull_rule_differences(&scene, cfg.basis, cfg.max_level)? {
+    for (g, d) in push_pull_rule_differences(scene, cfg.basis, cfg.max_level)? {
         rep.rows.push(
             Row::new(
                 format!(
@@ -280,8 +320,13 @@ the natural ones 304/402/755 s and 18.3 Mb."
         "",
         Tolerance::Info,
     ));
-    let mut reached = vec![("constant Jacobian".to_string(), &constant)];
-    for (g, m) in GAUSS.iter().zip(&natural) {
+    Ok(())
+}
+
+/// The convergence rate each run reached (the paper's runs stop at 90 %).
+fn convergence_rows(rep: &mut Report, constant: &Measured, natural: &[Measured]) {
+    let mut reached = vec![("constant Jacobian".to_string(), constant)];
+    for (g, m) in GAUSS.iter().zip(natural) {
         reached.push((format!("natural {g}×{g}"), m));
     }
     for (label, m) in reached {
@@ -293,17 +338,6 @@ the natural ones 304/402/755 s and 18.3 Mb."
             Tolerance::AtLeast(0.90),
         ));
     }
-    rep.tables.push(side_by_side(&constant, &natural));
-    rep.figures.push(convergence_figure(
-        ctx,
-        "convergence.svg",
-        "Chess set: constant vs natural Jacobian (M2)",
-        &[
-            ("constant Jacobian", &constant),
-            ("natural 10×10", &natural[1]),
-        ],
-    )?);
-    Ok(rep)
 }
 
 /// What we did, for the report.

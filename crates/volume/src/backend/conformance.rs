@@ -10,6 +10,10 @@
 //! * `agrees-with-cpu`: a random scene gathered by the backend and by
 //!   [`CpuProjector`] (same sampling, no supersampling) agree to the tolerance;
 //! * `deterministic`: two calls give bitwise equal results;
+//! * `recorded-transport`: where the backend records its gather
+//!   ([`Projector::record`]), the recorded map applied to the emission agrees with the
+//!   backend's own gather to the `cpu` tolerance, on the same random scene (0 when the
+//!   backend does not record);
 //! * `escape`: in a clear grid every emitted watt leaves (within 5 %: the boundary
 //!   framebuffer is a discretisation);
 //! * `rejects-bad-input`: inconsistent slices are an error, not a panic.
@@ -244,6 +248,11 @@ pub fn run(backend: &dyn Projector, tol: &Tolerances) -> Result<Vec<Check>, Volu
     out.push(check("agrees-with-cpu", diff / scale.max(1e-300), tol.cpu));
     let a2 = sys.collide(&sys.sources, &all, &mut Work::default())?;
     out.push(check("deterministic", if a2 == a { 0.0 } else { 1.0 }, 0.0));
+    out.push(check(
+        "recorded-transport",
+        recorded_transport_error(backend, &sys)?,
+        tol.cpu,
+    ));
 
     // Escape from a clear grid with thin emitters.
     let n = 8;
@@ -322,6 +331,48 @@ pub fn run(backend: &dyn Projector, tol: &Tolerances) -> Result<Vec<Check>, Volu
     Ok(out)
 }
 
+/// The largest difference between the backend's recorded transport applied to the
+/// sources' emission and its gather of the same, relative to the largest collided
+/// power; 0 when the backend does not record.
+fn recorded_transport_error(backend: &dyn Projector, sys: &System<'_>) -> Result<f64, VolumeError> {
+    let scene = ProjectionScene {
+        side: sys.side,
+        voxel: sys.voxel,
+        cells: &sys.traversal.cells,
+        cell_map: &sys.traversal.map,
+    };
+    let collision = sys.settings().collision;
+    let Some(t) = backend.record(&scene, collision, &sys.receivers, usize::MAX)? else {
+        return Ok(0.0);
+    };
+    let (e, p) = sys.emission(&sys.sources);
+    let mut direct = vec![[[0.0; 3]; 6]; sys.receivers.len()];
+    backend.gather(
+        &scene,
+        &Emission {
+            coefficients: &e,
+            power: &p,
+        },
+        collision,
+        &sys.receivers,
+        &mut direct,
+    )?;
+    let mut replayed = vec![[[0.0; 3]; 6]; sys.receivers.len()];
+    t.apply(&e, 0..sys.receivers.len(), &mut replayed)?;
+    let scale = direct
+        .iter()
+        .flatten()
+        .flatten()
+        .fold(0.0f64, |m, &v| m.max(v.abs()));
+    let diff = direct
+        .iter()
+        .flatten()
+        .flatten()
+        .zip(replayed.iter().flatten().flatten())
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    Ok(diff / scale.max(1e-300))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -347,6 +398,15 @@ mod tests {
                     continue;
                 }
                 assert!(c.ok, "{} {c:?}", p.name());
+            }
+            // The CPU projector records without supersampling: its replay agrees with
+            // its gather up to the order of the sums.
+            let rec = checks.iter().find(|c| c.name == "recorded-transport");
+            let rec = rec.expect("the suite checks the recorded transport");
+            if p.antialias == AntiAlias::OFF {
+                assert!(rec.value < 1e-12, "{rec:?}");
+            } else {
+                assert_eq!(rec.value, 0.0);
             }
         }
     }

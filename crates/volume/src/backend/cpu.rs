@@ -208,6 +208,51 @@ struct Traced {
     steps: u64,
 }
 
+/// Where a ray's contributions go: `add(w, h, entry, d)` adds `w` times the emission a
+/// ray entering `h` through the faces `entry` (weights over the axes) along `d` sees.
+trait Sink {
+    fn add(&mut self, tracer: &Tracer<'_>, w: f64, h: &Hit, entry: [f64; 3], d: [f64; 3]);
+}
+
+/// Sums the radiance (the gather).
+struct RadianceSink([f64; 3]);
+
+impl Sink for RadianceSink {
+    fn add(&mut self, tracer: &Tracer<'_>, w: f64, h: &Hit, entry: [f64; 3], d: [f64; 3]) {
+        let e = tracer.emission_of(h, entry, d);
+        for ch in 0..3 {
+            self.0[ch] += w * e[ch];
+        }
+    }
+}
+
+/// One receiver's recorded transport entries: (sender column `6 · cell + face`, entry
+/// face, weight).
+type Entries = Vec<(u32, u8, f64)>;
+
+/// Records the weights of the sender faces instead (the [`super::Transport`]): every
+/// contribution goes to the receiver's entry faces with the factors `rows`.
+struct RecordSink<'r> {
+    rows: [f64; 6],
+    out: &'r mut Entries,
+}
+
+impl Sink for RecordSink<'_> {
+    fn add(&mut self, _: &Tracer<'_>, w: f64, h: &Hit, entry: [f64; 3], d: [f64; 3]) {
+        for (a, &ea) in entry.iter().enumerate() {
+            if ea == 0.0 {
+                continue;
+            }
+            let col = (6 * h.ci + entry_face(a, d)) as u32;
+            for (row, &f) in self.rows.iter().enumerate() {
+                if f != 0.0 {
+                    self.out.push((col, row as u8, w * ea * f));
+                }
+            }
+        }
+    }
+}
+
 /// A ray: origin and direction in voxel units, where it starts and the face (as
 /// weights over the three axes) it enters its first cell through.
 #[derive(Clone, Copy)]
@@ -433,7 +478,24 @@ impl Tracer<'_> {
     /// [`Tracer::trace`]; with `skip_first` the first cell's emission is left out (its
     /// opacity is not): the conserving escape counts the boundary cells' own faces
     /// exactly instead ([`super::boundary_emission`]).
-    fn trace_skipping(&self, ray: Ray, footprint: f64, mut skip_first: bool) -> Traced {
+    fn trace_skipping(&self, ray: Ray, footprint: f64, skip_first: bool) -> Traced {
+        let mut sink = RadianceSink([0.0; 3]);
+        let steps = self.trace_into(ray, footprint, skip_first, &mut sink);
+        Traced {
+            radiance: sink.0,
+            steps,
+        }
+    }
+
+    /// The traversal of [`Tracer::trace_skipping`], handing every contribution to
+    /// `sink`; returns the cells composited.
+    fn trace_into<S: Sink>(
+        &self,
+        ray: Ray,
+        footprint: f64,
+        mut skip_first: bool,
+        sink: &mut S,
+    ) -> u64 {
         let Ray {
             o,
             d,
@@ -443,7 +505,6 @@ impl Tracer<'_> {
             mut inside,
         } = ray;
         let inv = d.map(|x| if x != 0.0 { 1.0 / x } else { f64::INFINITY });
-        let mut radiance = [0.0; 3];
         let mut trans = 1.0;
         let mut steps = 0u64;
         let h = self.scene.voxel;
@@ -478,12 +539,7 @@ impl Tracer<'_> {
             }
             if contributes {
                 let len = (te - t).max(0.0);
-                let e = if skip_first {
-                    skip_first = false;
-                    [0.0; 3]
-                } else {
-                    self.emission_of(&cur, entry, d)
-                };
+                let emits = !std::mem::take(&mut skip_first);
                 steps += 1;
                 let ext = cur.ext;
                 if ext > 0.0 {
@@ -492,19 +548,15 @@ impl Tracer<'_> {
                     } else {
                         (-ext * len).exp()
                     };
-                    let a = trans * (1.0 - tr);
-                    for ch in 0..3 {
-                        radiance[ch] += a * e[ch];
+                    if emits {
+                        sink.add(self, trans * (1.0 - tr), &cur, entry, d);
                     }
                     trans *= tr;
                     if trans < MIN_TRANSMITTANCE {
                         break;
                     }
-                } else {
-                    let a = trans * len * h;
-                    for ch in 0..3 {
-                        radiance[ch] += a * e[ch];
-                    }
+                } else if emits {
+                    sink.add(self, trans * len * h, &cur, entry, d);
                 }
             }
             if te == f64::INFINITY {
@@ -538,7 +590,8 @@ impl Tracer<'_> {
             let beyond = self.hit(idx, t, footprint);
             let mut passed = 0usize;
             let mut mix = [0.0; 3];
-            let mut stopped = [0.0; 3];
+            let orders = if n_tied == 2 { 2.0 } else { 6.0 };
+            let w_stop = trans / orders;
             let mut one_order = |order: &[usize]| {
                 let mut at = base;
                 let mut last = order[order.len() - 1];
@@ -552,10 +605,7 @@ impl Tracer<'_> {
                         break;
                     }
                     if side.ext == f64::INFINITY {
-                        let e = self.emission_of(&side, unit_entry(a), d);
-                        for ch in 0..3 {
-                            stopped[ch] += e[ch];
-                        }
+                        sink.add(self, w_stop, &side, unit_entry(a), d);
                         steps += 1;
                         return;
                     }
@@ -563,20 +613,15 @@ impl Tracer<'_> {
                 passed += 1;
                 mix[last] += 1.0;
             };
-            let orders = if n_tied == 2 {
+            if n_tied == 2 {
                 let ab = [tied[0], tied[1]];
                 for o in ORDERS_2 {
                     one_order(&o.map(|k| ab[k]));
                 }
-                2.0
             } else {
                 for o in ORDERS_3 {
                     one_order(&o);
                 }
-                6.0
-            };
-            for ch in 0..3 {
-                radiance[ch] += trans * stopped[ch] / orders;
             }
             trans *= passed as f64 / orders;
             if passed == 0 || trans < MIN_TRANSMITTANCE {
@@ -584,7 +629,7 @@ impl Tracer<'_> {
             }
             entry = mix.map(|m| m / passed as f64);
         }
-        Traced { radiance, steps }
+        steps
     }
 
     /// Whether any face centre of the box touches an opaque cell (then every entry
@@ -602,8 +647,12 @@ impl Tracer<'_> {
         })
     }
 
-    /// Radiance per entry face `k` (of `entries`) along direction `d`.
-    fn radiances(
+    /// The receiver's sample rays along `d`: `k²` points of every entry face `e` with
+    /// a positive weight (`per_face`; handed with `Some(e)`), or `k³` points of the box
+    /// (handed with `None`: they serve all three entry faces), each with its share
+    /// `1/k²` or `1/k³`.
+    #[allow(clippy::too_many_arguments)] // reason: the receiver's box, direction and faces
+    fn for_samples(
         &self,
         lo: [i64; 3],
         size: i64,
@@ -611,10 +660,8 @@ impl Tracer<'_> {
         entries: [u8; 3],
         weights: [f64; 3],
         per_face: bool,
-        footprint: f64,
-    ) -> ([[f64; 3]; 3], u64) {
-        let mut out = [[0.0; 3]; 3];
-        let mut steps = 0;
+        mut each: impl FnMut(Ray, Option<usize>, f64),
+    ) {
         let k = self.samples.max(1);
         let at = |j: usize| (j as f64 + 0.5) / k as f64;
         if per_face {
@@ -627,33 +674,123 @@ impl Tracer<'_> {
                 for jb in 0..k {
                     for ja in 0..k {
                         let ray = face_ray_at(lo, size, entries[e] as usize, d, [at(ja), at(jb)]);
-                        let tr = self.trace(ray, footprint);
-                        steps += tr.steps;
-                        for ch in 0..3 {
-                            out[e][ch] += inv * tr.radiance[ch];
-                        }
+                        each(ray, Some(e), inv);
                     }
                 }
             }
         } else {
             // k³ points of the cell (the midpoints of a k × k × k split).
             let inv = 1.0 / (k * k * k) as f64;
-            let mut sum = [0.0; 3];
             for jz in 0..k {
                 for jy in 0..k {
                     for jx in 0..k {
-                        let ray = box_ray_at(lo, size, d, [at(jx), at(jy), at(jz)]);
-                        let tr = self.trace(ray, footprint);
-                        steps += tr.steps;
-                        for ch in 0..3 {
-                            sum[ch] += inv * tr.radiance[ch];
-                        }
+                        each(box_ray_at(lo, size, d, [at(jx), at(jy), at(jz)]), None, inv);
                     }
                 }
             }
+        }
+    }
+
+    /// Radiance per entry face `k` (of `entries`) along direction `d`.
+    #[allow(clippy::too_many_arguments)] // reason: the receiver's box, direction and faces
+    fn radiances(
+        &self,
+        lo: [i64; 3],
+        size: i64,
+        d: [f64; 3],
+        entries: [u8; 3],
+        weights: [f64; 3],
+        per_face: bool,
+        footprint: f64,
+    ) -> ([[f64; 3]; 3], u64) {
+        let mut out = [[0.0; 3]; 3];
+        let mut sum = [0.0; 3];
+        let mut steps = 0;
+        self.for_samples(lo, size, d, entries, weights, per_face, |ray, e, inv| {
+            let tr = self.trace(ray, footprint);
+            steps += tr.steps;
+            let acc = match e {
+                Some(e) => &mut out[e],
+                None => &mut sum,
+            };
+            for ch in 0..3 {
+                acc[ch] += inv * tr.radiance[ch];
+            }
+        });
+        if !per_face {
             out = [sum; 3];
         }
         (out, steps)
+    }
+
+    /// Whether a receiver gathers on its faces (see [`Tracer::gather_one`]).
+    fn gathers_per_face(&self, cell: &TraversalCell) -> bool {
+        let (lo, size) = (cell.origin.map(i64::from), i64::from(cell.size));
+        self.touches_opaque(lo, size) || (self.samples > 1 && cell.extinction == f64::INFINITY)
+    }
+
+    /// The transport row of receiver `r` without supersampling: the weights with which
+    /// the sender faces' coefficients reach its entry faces (the linear map of
+    /// [`Tracer::gather_one`] with [`AntiAlias::OFF`]), sorted by (column, row) with
+    /// duplicates summed, and the cells composited.
+    fn record_one(
+        &self,
+        r: &Receiver,
+        map: &CubeMap,
+        collision: Collision,
+    ) -> (Vec<(u32, u8, f64)>, u64) {
+        let cell = &self.scene.cells[r.cell as usize];
+        let size = i64::from(cell.size);
+        let lo = cell.origin.map(i64::from);
+        let depth = cell.depth();
+        let per_face = self.gathers_per_face(cell);
+        let footprint = 2.0 / map.side as f64;
+        let mut raw = Vec::new();
+        let mut norm = 0.0;
+        let mut steps = 0;
+        for pix in &map.pixels {
+            let w = entry_weights(pix.abs, depth, collision);
+            let wt = w[0] + w[1] + w[2];
+            if wt <= 0.0 {
+                continue;
+            }
+            norm += pix.solid_angle * wt;
+            self.for_samples(lo, size, pix.dir, pix.entry, w, per_face, |ray, e, inv| {
+                let mut rows = [0.0; 6];
+                match e {
+                    Some(e) => rows[pix.entry[e] as usize] = pix.solid_angle * w[e] * inv,
+                    None => {
+                        for e in 0..3 {
+                            rows[pix.entry[e] as usize] += pix.solid_angle * w[e] * inv;
+                        }
+                    }
+                }
+                let mut sink = RecordSink {
+                    rows,
+                    out: &mut raw,
+                };
+                steps += self.trace_into(ray, footprint, false, &mut sink);
+            });
+        }
+        let scale = if norm > 0.0 {
+            let edge = size as f64 * self.scene.voxel;
+            cell.total_weight / norm * edge * edge
+        } else {
+            0.0
+        };
+        raw.sort_by_key(|&(c, row, _)| (c, row));
+        let mut merged: Entries = Vec::with_capacity(raw.len() / 4);
+        for (c, row, w) in raw {
+            match merged.last_mut() {
+                Some(last) if last.0 == c && last.1 == row => last.2 += w,
+                _ => merged.push((c, row, w)),
+            }
+        }
+        for m in &mut merged {
+            m.2 *= scale;
+        }
+        merged.retain(|m| m.2 != 0.0);
+        (merged, steps)
     }
 
     fn gather_one(
@@ -669,8 +806,7 @@ impl Tracer<'_> {
         let depth = cell.depth();
         // Opaque receivers are surfaces: with more than one sample they gather on their
         // faces.
-        let per_face =
-            self.touches_opaque(lo, size) || (self.samples > 1 && cell.extinction == f64::INFINITY);
+        let per_face = self.gathers_per_face(cell);
         let n = map.side;
         let footprint = 2.0 / n as f64;
         let mut acc = [[0.0; 3]; 6];
@@ -892,6 +1028,66 @@ impl Projector for CpuProjector {
             rays,
             composited: steps,
         })
+    }
+
+    /// Records the gather's linear map ([`super::Transport`]) in [`Projection::Exact`]
+    /// without supersampling (with it, which pixels are supersampled depends on the
+    /// radiance, so the gather is not linear; the pyramid is rebuilt from the emission
+    /// at every call): `None` otherwise, or when the map outgrows `max_bytes`
+    /// (receivers are recorded in blocks of 256 and the size checked after each).
+    fn record(
+        &self,
+        scene: &ProjectionScene<'_>,
+        collision: Collision,
+        receivers: &[Receiver],
+        max_bytes: usize,
+    ) -> Result<Option<super::Transport>, VolumeError> {
+        let empty: Vec<FaceRgb> = vec![[[0.0; 3]; 6]; scene.cells.len()];
+        let power = vec![[0.0; 3]; scene.cells.len()];
+        let emission = Emission {
+            coefficients: &empty,
+            power: &power,
+        };
+        check_inputs(&self.name(), scene, &emission, receivers, receivers.len())?;
+        if self.projection != Projection::Exact || self.antialias.subdivisions > 1 {
+            return Ok(None);
+        }
+        let tracer = Tracer {
+            scene,
+            emission: &emission,
+            pyramid: None,
+            samples: self.receiver_samples.max(1) as usize,
+        };
+        let mut sides: Vec<u32> = receivers.iter().map(|r| r.framebuffer).collect();
+        sides.sort_unstable();
+        sides.dedup();
+        let maps: Vec<_> = sides.iter().map(|&s| CubeMap::shared(s as usize)).collect();
+        let map_of = |s: u32| -> &CubeMap {
+            let i = sides.binary_search(&s).unwrap_or(0);
+            &maps[i]
+        };
+        let mut t = super::Transport {
+            offsets: vec![0],
+            ..super::Transport::default()
+        };
+        for block in receivers.chunks(256) {
+            let rows: Vec<(Entries, u64)> = block
+                .par_iter()
+                .map(|r| tracer.record_one(r, map_of(r.framebuffer), collision))
+                .collect();
+            for (row, _) in rows {
+                for (c, f, w) in row {
+                    t.columns.push(c);
+                    t.rows.push(f);
+                    t.weights.push(w);
+                }
+                t.offsets.push(t.columns.len());
+            }
+            if t.bytes() > max_bytes {
+                return Ok(None);
+            }
+        }
+        Ok(Some(t))
     }
 
     fn escape(

@@ -128,6 +128,100 @@ impl std::ops::AddAssign for GatherStats {
     }
 }
 
+/// The recorded linear map of [`Projector::gather`] for one scene, collision mode and
+/// receiver list: the gather is linear in the emission coefficients (opacities are
+/// fixed while an active set is relaxed), so a backend may record, per receiver, the
+/// weight with which every sender face's coefficient reaches each of its entry faces
+/// once, and every later gather is a sparse product ([`Transport::apply`]). Entries of
+/// one receiver are sorted by (sender face, entry face) and summed in that order, so
+/// the product is deterministic whatever the thread count; it equals the backend's
+/// gather up to the order of the floating-point sums (relative 1e-12 in the
+/// conformance suite).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Transport {
+    /// Per receiver, its entries are `offsets[r]..offsets[r + 1]`.
+    pub offsets: Vec<usize>,
+    /// Per entry, the sender cell's face `6 · cell + face`.
+    pub columns: Vec<u32>,
+    /// Per entry, the receiver's entry face (`0..6`).
+    pub rows: Vec<u8>,
+    /// Per entry, the weight (m²·sr: watts collided per W/(m²·sr) of coefficient; m³·sr
+    /// for empty cells' coefficients).
+    pub weights: Vec<f64>,
+}
+
+impl Transport {
+    /// Bytes an entry takes.
+    pub const ENTRY_BYTES: usize = 4 + 1 + 8;
+
+    /// Number of receivers.
+    #[must_use]
+    pub fn receivers(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
+    /// Number of entries.
+    #[must_use]
+    pub fn entries(&self) -> usize {
+        self.columns.len()
+    }
+
+    /// Memory of the entries (bytes).
+    #[must_use]
+    pub fn bytes(&self) -> usize {
+        self.entries() * Self::ENTRY_BYTES + self.offsets.len() * 8
+    }
+
+    /// The gather of the receivers `range` (indices into the recorded receiver list)
+    /// for the emission coefficients `coefficients`, written to `out` (one per receiver
+    /// of the range).
+    ///
+    /// # Errors
+    /// [`VolumeError::Backend`] when the range, `out` or a column does not fit.
+    pub fn apply(
+        &self,
+        coefficients: &[FaceRgb],
+        range: std::ops::Range<usize>,
+        out: &mut [FaceRgb],
+    ) -> Result<(), VolumeError> {
+        use rayon::prelude::*;
+        if range.end > self.receivers() || out.len() != range.len() {
+            return Err(VolumeError::Backend {
+                backend: "transport".into(),
+                reason: format!(
+                    "receivers {range:?} of {} into {} outputs",
+                    self.receivers(),
+                    out.len()
+                ),
+            });
+        }
+        let n_cols = coefficients.len() * 6;
+        if self.columns.iter().any(|&c| c as usize >= n_cols) {
+            return Err(VolumeError::Backend {
+                backend: "transport".into(),
+                reason: format!("a column beyond the {} cells' faces", coefficients.len()),
+            });
+        }
+        out.par_iter_mut()
+            .enumerate()
+            .with_min_len(16)
+            .for_each(|(k, o)| {
+                let r = range.start + k;
+                *o = [[0.0; 3]; 6];
+                for j in self.offsets[r]..self.offsets[r + 1] {
+                    let c = self.columns[j] as usize;
+                    let e = &coefficients[c / 6][c % 6];
+                    let w = self.weights[j];
+                    let f = &mut o[self.rows[j] as usize];
+                    for ch in 0..3 {
+                        f[ch] += w * e[ch];
+                    }
+                }
+            });
+        Ok(())
+    }
+}
+
 /// A projection backend. Implementations must be deterministic: the same inputs give
 /// bitwise the same outputs whatever the thread count.
 pub trait Projector: Sync {
@@ -148,6 +242,23 @@ pub trait Projector: Sync {
         receivers: &[Receiver],
         out: &mut [FaceRgb],
     ) -> Result<GatherStats, VolumeError>;
+
+    /// Records the linear map of [`Projector::gather`] for `receivers` ([`Transport`]),
+    /// or `None` when the backend does not record (the default) or the map would take
+    /// more than `max_bytes`; the caller then keeps calling `gather`.
+    ///
+    /// # Errors
+    /// As [`Projector::gather`].
+    fn record(
+        &self,
+        scene: &ProjectionScene<'_>,
+        collision: crate::cell::Collision,
+        receivers: &[Receiver],
+        max_bytes: usize,
+    ) -> Result<Option<Transport>, VolumeError> {
+        let _ = (scene, collision, receivers, max_bytes);
+        Ok(None)
+    }
 
     /// Power (W per channel) leaving through the grid's boundary, seen from every
     /// boundary voxel square through the inward half of a framebuffer of side

@@ -15,8 +15,11 @@
 //! wired so far: the global cube's projection (`wavelux_gpu::GpuProjector`, the exact
 //! projection with one ray per pixel and receiver sample, 1, 2, 4 or 8 receiver
 //! samples per axis, no supersampling,
-//! [`FallbackProjector`]) and the meshless relighting product `S·e`
-//! (`wavelux_gpu::GpuTransfer`, [`DeviceTransfer`]).
+//! [`FallbackProjector`]), the meshless relighting product `S·e`
+//! (`wavelux_gpu::GpuTransfer`, [`DeviceTransfer`]) and the shadow rays of the
+//! surface method's transfer blocks (`wavelux_gpu::GpuOcclusion`,
+//! [`Device::occlusion`]: recorded, answered in batches and replayed, bitwise the
+//! CPU's solution).
 
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -117,6 +120,55 @@ impl Device {
         self.adapter.is_some() && self.fallback_reason().is_none()
     }
 
+    /// The occlusion backend of the surface method's transfer blocks
+    /// (`wavelux_gpu::GpuOcclusion`) when the run is on the GPU. `--device auto`
+    /// declines it when 10 % or more of the scene's primitives are curved (the device
+    /// hands every ray reaching a curved box back to the CPU), the reason in
+    /// `fallback`.
+    pub fn occlusion(
+        &self,
+        scene: &wavelux::scene::Scene,
+    ) -> Option<Box<dyn wavelux::geometry::backend::OcclusionBackend>> {
+        #[cfg(feature = "gpu")]
+        {
+            let gpu = self.gpu()?;
+            if self.requested == DeviceArg::Auto {
+                let (curved, all) = curved_primitives(scene);
+                if curved * 10 >= all && curved > 0 {
+                    if let Ok(mut f) = self.fallback.lock() {
+                        f.get_or_insert(format!(
+                            "{curved} of the scene's {all} primitives are curved (10 % or \
+                             more): auto traces on the CPU (--device gpu uses the GPU)"
+                        ));
+                    }
+                    return None;
+                }
+            }
+            Some(Box::new(wavelux::gpu::GpuOcclusion::new(gpu)))
+        }
+        #[cfg(not(feature = "gpu"))]
+        {
+            let _ = scene;
+            None
+        }
+    }
+
+    /// Takes a surface solve's device statistics (rays decided on the device, rays
+    /// answered on the CPU, the device's first error).
+    pub fn record_solve(&self, s: &wavelux::solver::Statistics) {
+        self.device_rays.fetch_add(s.device_rays, Ordering::Relaxed);
+        self.deferred_rays
+            .fetch_add(s.deferred_rays, Ordering::Relaxed);
+        if let Some(why) = &s.device_failure
+            && let Ok(mut f) = self.fallback.lock()
+            && f.is_none()
+        {
+            *f = Some(format!(
+                "device error in the shadow rays: {why}; the rest of the run used the CPU"
+            ));
+        }
+    }
+
     fn fallback_reason(&self) -> Option<String> {
         self.fallback.lock().ok().and_then(|f| f.clone())
     }
@@ -159,6 +211,33 @@ impl Device {
         }
         (Some(d), Some(c))
     }
+}
+
+/// The surface solver's devices for an occlusion backend from
+/// [`Device::occlusion`]: the shadow rays on it; the linear solve's gather stays on
+/// the CPU, so that the solution is bitwise the CPU's (`wavelux_solver::matvec` would
+/// change it within the tolerance).
+pub fn backends(
+    occlusion: &Option<Box<dyn wavelux::geometry::backend::OcclusionBackend>>,
+) -> wavelux::solver::Backends<'_> {
+    wavelux::solver::Backends {
+        occlusion: occlusion.as_deref(),
+        ..Default::default()
+    }
+}
+
+/// Curved primitives (trimmed and Bézier patches) and all primitives of a scene.
+#[cfg(feature = "gpu")]
+fn curved_primitives(scene: &wavelux::scene::Scene) -> (usize, usize) {
+    use wavelux::geometry::Primitive;
+    let (mut curved, mut all) = (0, 0);
+    for s in &scene.surfaces {
+        for p in s.shape.primitives("scene", &s.name).unwrap_or_default() {
+            all += 1;
+            curved += usize::from(matches!(p, Primitive::Trimmed(_) | Primitive::Bezier(_)));
+        }
+    }
+    (curved, all)
 }
 
 /// Chooses the device of a run: `kernel` says whether the planned method has a GPU

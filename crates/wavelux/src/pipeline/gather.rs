@@ -3,8 +3,9 @@
 //! CGNR.
 
 use anyhow::{Context, bail};
-use wavelux::solver::{LinearMethod, Oracle, SolverConfig};
+use wavelux::solver::{BasisKind, LinearMethod, Oracle, SolverConfig};
 
+use super::device::backends;
 use super::wavelet::{basis_kind, finish, visibility};
 use super::{Job, Method, Outcome, name_of};
 use crate::cli::{BasisArg, OracleArg, SolveArgs, SolverArg, VisibilityArg};
@@ -80,10 +81,20 @@ impl Method for Gather {
 
     fn run(&self, job: &Job<'_>, stats: &mut report::Statistics) -> anyhow::Result<Outcome> {
         let sp = progress::spinner(job.show_progress, "refining and solving");
-        let sol = wavelux::solver::solve(job.scene, &self.cfg);
+        let backend = job.device.occlusion(job.scene);
+        let sol = wavelux::solver::solve_on(job.scene, &self.cfg, backends(&backend));
         sp.finish_and_clear();
         let sol = sol.with_context(|| format!("solving {:?} failed", job.args.scene))?;
+        job.device.record_solve(&sol.stats);
         finish(job, sol, stats)
+    }
+
+    fn gpu_kernel(&self) -> Result<(), String> {
+        match (self.cfg.basis, self.visibility) {
+            (_, VisibilityArg::Off) => Err("--visibility off shoots no shadow rays".into()),
+            (BasisKind::Cdv, _) => Err("the CDV basis traces its shadow rays on the CPU".into()),
+            _ => Ok(()),
+        }
     }
 
     fn describe(&self, _r: &report::Result) -> String {

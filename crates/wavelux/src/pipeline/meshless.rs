@@ -39,7 +39,7 @@ struct Meshless {
 
 /// The meshless plan: the knobs of `--levels`, `--sender-levels`, `--r-coarse`,
 /// `--gather-rays`, `--eps` (the link threshold ε, default [`DEFAULT_EPS`]), `--bounces`,
-/// `--bounce-eps`, `--link-threshold`, `--viewpoint`, `--skip`, `--max-points`, `--max-links` and `--seed`,
+/// `--bounce-eps`, `--link-threshold`, `--max-dropped-share`, `--viewpoint`, `--skip`, `--max-points`, `--max-links` and `--seed`,
 /// checked by [`MeshlessConfig::validate`].
 pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
     Ok(Box::new(Meshless { config: config(a)? }))
@@ -67,6 +67,7 @@ pub fn config(a: &SolveArgs) -> anyhow::Result<MeshlessConfig> {
             LinkThresholdArg::SenderArea => LinkThreshold::SenderArea,
             LinkThresholdArg::Uniform => LinkThreshold::Uniform,
         },
+        max_dropped_share: m.max_dropped_share,
         bounces: m.bounces,
         seed: a.seed,
         viewpoint,

@@ -6,8 +6,9 @@
 //! safety limit. What it chose, and every round, go into `statistics.target`.
 
 use anyhow::{Context, bail};
-use wavelux::solver::{LinearMethod, TargetConfig, TargetOutcome, solve_to_target};
+use wavelux::solver::{LinearMethod, TargetConfig, TargetOutcome, solve_to_target_on};
 
+use super::device::backends;
 use super::wavelet::{basis_kind, finish, visibility};
 use super::{Job, Method, Outcome, name_of, secs};
 use crate::cli::{BasisArg, MethodArg, SolveArgs, SolverArg, VisibilityArg};
@@ -153,12 +154,21 @@ impl Method for Target {
 
     fn run(&self, job: &Job<'_>, stats: &mut report::Statistics) -> anyhow::Result<Outcome> {
         let sp = progress::spinner(job.show_progress, "refining, solving and estimating");
-        let out = solve_to_target(job.scene, &self.cfg);
+        let backend = job.device.occlusion(job.scene);
+        let out = solve_to_target_on(job.scene, &self.cfg, backends(&backend));
         sp.finish_and_clear();
         let out = out.with_context(|| format!("solving {:?} failed", job.args.scene))?;
+        job.device.record_solve(&out.solution.stats);
         stats.target = Some(report_of(job.scene, &self.cfg, &out));
         stats.time_s.estimate = out.rounds.iter().map(|r| secs(r.time_estimate)).sum();
         finish(job, out.solution, stats)
+    }
+
+    fn gpu_kernel(&self) -> Result<(), String> {
+        match self.visibility {
+            VisibilityArg::Off => Err("--visibility off shoots no shadow rays".into()),
+            _ => Ok(()),
+        }
     }
 
     fn describe(&self, r: &report::Result) -> String {
