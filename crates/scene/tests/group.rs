@@ -538,8 +538,11 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
 
     /// A random star-shaped polygon, fan-triangulated from its centre and moved
-    /// anywhere at any scale, comes back as itself: same area, same vertex count
-    /// (no vertex of a random polygon is straight within 1e-6).
+    /// anywhere at any scale, comes back as itself: same area and vertex count when
+    /// no vertex runs straight within twice the straightening tolerance
+    /// (`COPLANAR_REL` × the group's diagonal); otherwise (a random polygon can have
+    /// nearly straight vertices: CI drew one) the area within the documented bound,
+    /// 4 × tolerance × perimeter, and no more vertices than it had.
     #[test]
     fn fans_of_random_star_polygons_round_trip(
         radii in proptest::collection::vec(0.3f64..1.0, 5..40),
@@ -559,14 +562,41 @@ proptest! {
             area += 0.5 * r * r2 * (TAU / f64::from(n)).sin() * scale * scale;
         }
         let tris: Vec<[u32; 3]> = (1..=n).map(|k| [0, k, k % n + 1]).collect();
+        // The straightening tolerance, and how far each rim vertex is from the chord
+        // of its two neighbours.
+        let lo = positions.iter().fold(DVec3::splat(f64::INFINITY), |a, &p| a.min(p));
+        let hi = positions.iter().fold(DVec3::splat(f64::NEG_INFINITY), |a, &p| a.max(p));
+        let tol = wavelux_scene::group::COPLANAR_REL * (hi - lo).length();
+        let rim = &positions[1..];
+        let m = rim.len();
+        let mut perimeter = 0.0;
+        let mut straightest = f64::INFINITY;
+        for k in 0..m {
+            let (a, q, c) = (rim[(k + m - 1) % m], rim[k], rim[(k + 1) % m]);
+            perimeter += (c - q).length();
+            straightest = straightest.min((q - a).cross(c - a).length() / (c - a).length());
+        }
         let g = group_mesh(&mesh(positions, &tris), "t", "m").unwrap();
-        prop_assert!(g.warnings.is_empty(), "{:?}", g.warnings);
+        // A star of 16 or more vertices whose radii all lie within 25 % of their fitted
+        // circle is a documented near miss (`fit::NEAR_MISS_REL`) and says so; no other
+        // warning (a fallback to triangles above all) is allowed.
+        let others: Vec<_> = g
+            .warnings
+            .iter()
+            .filter(|w| !matches!(w, WarningKind::CurveNotRecognised { .. }))
+            .collect();
+        prop_assert!(others.is_empty(), "{:?}", others);
         prop_assert_eq!(g.parts.len(), 1);
         let got = g.parts[0].shape.area();
-        prop_assert!((got - area).abs() <= 1e-9 * area, "{} vs {}", got, area);
+        let exact = straightest > 2.0 * tol;
+        let bound = if exact { 1e-9 * area } else { 4.0 * tol * perimeter + 1e-9 * area };
+        prop_assert!((got - area).abs() <= bound, "{} vs {} (bound {})", got, area, bound);
         if let Shape::Polygon(p) = &g.parts[0].shape {
             prop_assert!(p.outer.edges.len() <= n as usize);
             prop_assert!(p.outer.edges.len() >= 3);
+            if exact {
+                prop_assert_eq!(p.outer.edges.len(), n as usize);
+            }
         }
     }
 }
