@@ -126,18 +126,14 @@ const SHARE: f64 = 0.1;
 /// [`SHARE`] of its gathered mass: whether the error then falls with `R_coarse`, and
 /// the error target at ε = 0.005 with the bound. `seed` holds the point sweep's runs
 /// (the seed's criteria alone), finest last.
-#[allow(clippy::too_many_arguments)] // reason: the reproduction's shared inputs
 fn share_sweep(
-    scene: &Scene,
-    query: &SceneSurfaces,
-    s: &Sizes,
-    points: &[ViewPoint],
-    reference: &[([f64; 3], [f64; 3])],
+    su: &Setup<'_>,
     seed: &[Run],
     quick: bool,
     r: &mut Report,
     table: &mut Vec<Vec<String>>,
 ) -> anyhow::Result<()> {
+    let s = su.s;
     let label = format!("level-0 dropped share ≤ {SHARE}");
     let mut runs = Vec::new();
     for &rc in &s.r_sweep {
@@ -145,7 +141,7 @@ fn share_sweep(
             max_dropped_share: Some(SHARE),
             ..config(s, rc, 0.005)
         };
-        let (run, _) = run_one(scene, query, &cfg, s, points, reference)?;
+        let (run, _) = su.run(&cfg)?;
         table.push(run_row(
             format!("R_coarse = {rc} m, ε = 0.005, {label}"),
             &run,
@@ -219,33 +215,42 @@ struct Run {
     ours: Vec<[f64; 3]>,
 }
 
-fn run_one(
-    scene: &Scene,
-    query: &SceneSurfaces,
-    cfg: &MeshlessConfig,
-    s: &Sizes,
-    points: &[ViewPoint],
-    reference: &[([f64; 3], [f64; 3])],
-) -> anyhow::Result<(Run, Precomputed)> {
-    let (pre, seconds) = precompute(scene, cfg)?;
-    let relighter = Relighter::new(&pre, CpuBackend)?;
-    let ind = relighter.relight_with(query, &scene_direct(scene, query, s.emitter_samples, 1))?;
-    let ours = at_points(&ind, points);
-    let (l1, _) = relative_l1(&ours, reference);
-    let run = Run {
-        receivers: functions(&pre),
-        senders: pre.senders(),
-        t_links: pre.t.nnz(),
-        s_links: pre.s.nnz(),
-        seconds,
-        refine_ms: pre.stats.refine_ms,
-        computed: pre.stats.refine.levels.iter().map(|l| l.computed).sum(),
-        l1,
-        energy: energy_ratio(&ours, reference),
-        ours,
-    };
-    drop(ind);
-    Ok((run, pre))
+/// The inputs every run shares: the scene, its surfaces, the mode's sizes, the camera
+/// points and their path-traced indirect reference.
+struct Setup<'a> {
+    scene: &'a Scene,
+    query: &'a SceneSurfaces,
+    s: &'a Sizes,
+    points: &'a [ViewPoint],
+    reference: &'a [([f64; 3], [f64; 3])],
+}
+
+impl Setup<'_> {
+    /// One precomputation with `cfg`, relit by the scene's own lighting and measured
+    /// at the points.
+    fn run(&self, cfg: &MeshlessConfig) -> anyhow::Result<(Run, Precomputed)> {
+        let (scene, query) = (self.scene, self.query);
+        let (pre, seconds) = precompute(scene, cfg)?;
+        let relighter = Relighter::new(&pre, CpuBackend)?;
+        let direct = scene_direct(scene, query, self.s.emitter_samples, 1);
+        let ind = relighter.relight_with(query, &direct)?;
+        let ours = at_points(&ind, self.points);
+        let (l1, _) = relative_l1(&ours, self.reference);
+        let run = Run {
+            receivers: functions(&pre),
+            senders: pre.senders(),
+            t_links: pre.t.nnz(),
+            s_links: pre.s.nnz(),
+            seconds,
+            refine_ms: pre.stats.refine_ms,
+            computed: pre.stats.refine.levels.iter().map(|l| l.computed).sum(),
+            l1,
+            energy: energy_ratio(&ours, self.reference),
+            ours,
+        };
+        drop(ind);
+        Ok((run, pre))
+    }
 }
 
 fn run_row(label: String, r: &Run) -> Vec<String> {
@@ -285,6 +290,46 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         &reference.iter().map(|(m, _)| *m).collect::<Vec<_>>(),
         &reference,
     );
+    describe(&mut r, s, points.len(), floor);
+    let su = Setup {
+        scene: &scene,
+        query: &query,
+        s,
+        points: &points,
+        reference: &reference,
+    };
+    let mut table = Vec::new();
+    let sweep = point_sweep(&su, &mut r, &mut table)?;
+    let eps_runs = eps_sweep(&su, &sweep, floor, &mut r, &mut table)?;
+    what_bounds_the_target(&su, &eps_runs[4], &mut r, &mut table)?;
+    share_sweep(&su, &sweep, ctx.quick, &mut r, &mut table)?;
+    edge_band_rows(&su, &eps_runs[4], &mut r);
+    r.rows.push(
+        Row::new(
+            "indirect relative L1 vs path tracer, Cornell box, ε = 0.0025",
+            None,
+            eps_runs[5].l1,
+            "",
+            Tolerance::Info,
+        )
+        .comment(format!(
+            "{} links in T, precompute {:.1} s (ε = 0.005: {}, {:.1} s)",
+            eps_runs[5].t_links, eps_runs[5].seconds, eps_runs[4].t_links, eps_runs[4].seconds
+        )),
+    );
+    paper_bounces(&su, &mut r, &mut table)?;
+    dense_comparison(&su, &mut r, &mut table)?;
+    r.tables.push(Table {
+        title: "Runs (one precomputation each; error against the path tracer)".into(),
+        headers: RUN_HEADERS.iter().map(|h| h.to_string()).collect(),
+        rows: table,
+    });
+    figures(ctx, s, &sweep, &eps_runs, &mut r)?;
+    Ok(r)
+}
+
+/// The report's parameters and its "paper did" / "we did" text.
+fn describe(r: &mut Report, s: &Sizes, points: usize, floor: f64) {
     r.param(
         "scene",
         "builtin:cornell-box (area light; emitters sampled by NEE)",
@@ -300,7 +345,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         "reference",
         format!(
             "path-traced indirect irradiance at {} camera points, {} walks each (noise floor {:.2} %)",
-            points.len(),
+            points,
             s.paths,
             100.0 * floor
         ),
@@ -330,59 +375,44 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         (`max_dropped_share`, ours: the seed's uniform ε drops more of a finer level 0's \
         links, each ∝ R_coarse²). Reduced sizes (levels, gather rays, \
         points) are ours, for the shared 2-core machine; the quick run is smaller still.",
-        points.len(),
+        points,
         s.paths,
         100.0 * floor,
         s.r_sweep,
         s.r_eps,
         s.dense_levels
     );
+}
 
-    // Point sweep.
+/// The slope of `y` against the receivers over the point sweep's runs.
+fn receiver_slope(sweep: &[Run], y: impl Fn(&Run) -> f64) -> f64 {
+    log_slope(
+        &sweep
+            .iter()
+            .map(|q| (q.receivers as f64, y(q)))
+            .collect::<Vec<_>>(),
+    )
+}
+
+/// The point sweep (`R_coarse` at ε = 0.005) and its growth and error rows; its
+/// runs, coarsest first.
+fn point_sweep(
+    su: &Setup<'_>,
+    r: &mut Report,
+    table: &mut Vec<Vec<String>>,
+) -> anyhow::Result<Vec<Run>> {
+    let s = su.s;
     let mut sweep = Vec::new();
-    let mut table = Vec::new();
     for &rc in &s.r_sweep {
-        let (run, _) = run_one(
-            &scene,
-            &query,
-            &config(s, rc, 0.005),
-            s,
-            &points,
-            &reference,
-        )?;
+        let (run, _) = su.run(&config(s, rc, 0.005))?;
         table.push(run_row(format!("R_coarse = {rc} m, ε = 0.005"), &run));
         sweep.push(run);
     }
-    let links_exp = log_slope(
-        &sweep
-            .iter()
-            .map(|q| (q.receivers as f64, q.s_links as f64))
-            .collect::<Vec<_>>(),
-    );
-    let t_exp = log_slope(
-        &sweep
-            .iter()
-            .map(|q| (q.receivers as f64, q.t_links as f64))
-            .collect::<Vec<_>>(),
-    );
-    let time_exp = log_slope(
-        &sweep
-            .iter()
-            .map(|q| (q.receivers as f64, q.refine_ms))
-            .collect::<Vec<_>>(),
-    );
-    let work_exp = log_slope(
-        &sweep
-            .iter()
-            .map(|q| (q.receivers as f64, q.computed as f64))
-            .collect::<Vec<_>>(),
-    );
-    let err_exp = log_slope(
-        &sweep
-            .iter()
-            .map(|q| (q.receivers as f64, q.l1))
-            .collect::<Vec<_>>(),
-    );
+    let links_exp = receiver_slope(&sweep, |q| q.s_links as f64);
+    let t_exp = receiver_slope(&sweep, |q| q.t_links as f64);
+    let time_exp = receiver_slope(&sweep, |q| q.refine_ms);
+    let work_exp = receiver_slope(&sweep, |q| q.computed as f64);
+    let err_exp = receiver_slope(&sweep, |q| q.l1);
     r.rows.push(
         Row::new(
             "exponent of links in T against receivers (R_coarse sweep, ε = 0.005)",
@@ -444,23 +474,27 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         )
         .comment("the error falls as R_coarse shrinks"),
     );
+    Ok(sweep)
+}
 
-    // ε sweep (the point sweep's finest run is the same configuration at ε = 0.005:
-    // the precomputation is deterministic, so it is reused).
+/// The ε sweep at `R_coarse = r_eps` and its rows, with issue 15's error target at
+/// ε = 0.005; its runs in the order of [`EPS`]. The point sweep's finest run is the
+/// same configuration at ε = 0.005 when `r_eps` is its `R_coarse`: the
+/// precomputation is deterministic, so it is reused.
+fn eps_sweep(
+    su: &Setup<'_>,
+    sweep: &[Run],
+    floor: f64,
+    r: &mut Report,
+    table: &mut Vec<Vec<String>>,
+) -> anyhow::Result<Vec<Run>> {
+    let s = su.s;
     let mut eps_runs = Vec::new();
     for &eps in &EPS {
         let run = if eps == 0.005 && s.r_eps == s.r_sweep[2] {
             sweep[2].clone()
         } else {
-            run_one(
-                &scene,
-                &query,
-                &config(s, s.r_eps, eps),
-                s,
-                &points,
-                &reference,
-            )?
-            .0
+            su.run(&config(s, s.r_eps, eps))?.0
         };
         table.push(run_row(
             format!("R_coarse = {} m, ε = {eps}", s.r_eps),
@@ -511,34 +545,43 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         eps_runs[4].receivers
     ));
     r.rows.push(target);
-    // What bounds it: the same configuration with another seed (point placement and
-    // gather strata), and the error by distance to the box's other faces.
-    {
-        let cfg = MeshlessConfig {
-            seed: 2,
-            ..config(s, s.r_eps, 0.005)
-        };
-        let (run, _) = run_one(&scene, &query, &cfg, s, &points, &reference)?;
-        r.rows.push(
-            Row::new(
-                "indirect relative L1 vs path tracer, ε = 0.005, seed 2 (point placement, gather strata)",
-                None,
-                run.l1,
-                "",
-                Tolerance::Info,
-            )
-            .comment(format!(
-                "energy {:.3}; {} receivers; the two seeds' solutions differ by {:.2} % (relative L1)",
-                run.energy,
-                run.receivers,
-                100.0 * relative_l1(&run.ours, &exact_ref(&eps_runs[4].ours)).0
-            )),
-        );
-        table.push(run_row(
-            format!("R_coarse = {} m, ε = 0.005, seed 2", s.r_eps),
-            &run,
-        ));
-    }
+    Ok(eps_runs)
+}
+
+/// What bounds the error target at ε = 0.005 (`target`, the ε sweep's run there): the
+/// same configuration with another seed (point placement and gather strata), and
+/// which links the threshold truncates.
+fn what_bounds_the_target(
+    su: &Setup<'_>,
+    target: &Run,
+    r: &mut Report,
+    table: &mut Vec<Vec<String>>,
+) -> anyhow::Result<()> {
+    let s = su.s;
+    let cfg = MeshlessConfig {
+        seed: 2,
+        ..config(s, s.r_eps, 0.005)
+    };
+    let (run, _) = su.run(&cfg)?;
+    r.rows.push(
+        Row::new(
+            "indirect relative L1 vs path tracer, ε = 0.005, seed 2 (point placement, gather strata)",
+            None,
+            run.l1,
+            "",
+            Tolerance::Info,
+        )
+        .comment(format!(
+            "energy {:.3}; {} receivers; the two seeds' solutions differ by {:.2} % (relative L1)",
+            run.energy,
+            run.receivers,
+            100.0 * relative_l1(&run.ours, &exact_ref(&target.ours)).0
+        )),
+    );
+    table.push(run_row(
+        format!("R_coarse = {} m, ε = 0.005, seed 2", s.r_eps),
+        &run,
+    ));
     // Which links the threshold truncates: the same run with the threshold scaled by
     // the sender's support area (ε/4^l on sender level l), and with level-0 senders
     // only. If the finer senders' links carried the lost energy, the first would
@@ -559,7 +602,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             },
         ),
     ] {
-        let (run, _) = run_one(&scene, &query, &cfg, s, &points, &reference)?;
+        let (run, _) = su.run(&cfg)?;
         r.rows.push(
             Row::new(
                 format!("indirect relative L1 vs path tracer, {label}"),
@@ -570,15 +613,19 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             )
             .comment(format!(
                 "energy {:.3}, {} links in T (uniform ε = 0.005, two sender levels: {:.3}, {})",
-                run.energy, run.t_links, eps_runs[4].energy, eps_runs[4].t_links
+                run.energy, run.t_links, target.energy, target.t_links
             )),
         );
         table.push(run_row(format!("R_coarse = {} m, {label}", s.r_eps), &run));
     }
-    share_sweep(
-        &scene, &query, s, &points, &reference, &sweep, ctx.quick, &mut r, &mut table,
-    )?;
-    let (lo, hi) = query.bounds();
+    Ok(())
+}
+
+/// The error at ε = 0.005 (`target`) split by the points' distance to the box's
+/// other faces ([`EDGE_BANDS`]).
+fn edge_band_rows(su: &Setup<'_>, target: &Run, r: &mut Report) {
+    let (points, reference) = (su.points, su.reference);
+    let (lo, hi) = su.query.bounds();
     for (band, a, b) in EDGE_BANDS {
         let keep: Vec<usize> = (0..points.len())
             .filter(|&k| {
@@ -586,7 +633,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
                 d > a && d <= b
             })
             .collect();
-        let ours: Vec<[f64; 3]> = keep.iter().map(|&k| eps_runs[4].ours[k]).collect();
+        let ours: Vec<[f64; 3]> = keep.iter().map(|&k| target.ours[k]).collect();
         let refs: Vec<([f64; 3], [f64; 3])> = keep.iter().map(|&k| reference[k]).collect();
         let (l1, fl) = relative_l1(&ours, &refs);
         r.rows.push(
@@ -605,48 +652,49 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             )),
         );
     }
-    r.rows.push(
-        Row::new(
-            "indirect relative L1 vs path tracer, Cornell box, ε = 0.0025",
-            None,
-            eps_runs[5].l1,
-            "",
-            Tolerance::Info,
-        )
-        .comment(format!(
-            "{} links in T, precompute {:.1} s (ε = 0.005: {}, {:.1} s)",
-            eps_runs[5].t_links, eps_runs[5].seconds, eps_runs[4].t_links, eps_runs[4].seconds
-        )),
-    );
+}
 
-    // Where the energy goes at ε = 0.005: the paper's four bounces with the crate's
-    // default bounce threshold.
-    {
-        let label = "ε = 0.005, 4 bounces, bounce threshold ε/10 (the crate's defaults)";
-        let cfg = MeshlessConfig {
-            bounces: 4,
-            bounce_epsilon: None,
-            ..config(s, s.r_eps, 0.005)
-        };
-        let (run, _) = run_one(&scene, &query, &cfg, s, &points, &reference)?;
-        r.rows.push(Row::new(
-            format!("indirect energy kept (ours / reference), {label}"),
-            None,
-            run.energy,
-            "",
-            Tolerance::Info,
-        ));
-        r.rows.push(Row::new(
-            format!("indirect relative L1 vs path tracer, {label}"),
-            None,
-            run.l1,
-            "",
-            Tolerance::Info,
-        ));
-        table.push(run_row(format!("R_coarse = {} m, {label}", s.r_eps), &run));
-    }
+/// Where the energy goes at ε = 0.005: the paper's four bounces with the crate's
+/// default bounce threshold.
+fn paper_bounces(
+    su: &Setup<'_>,
+    r: &mut Report,
+    table: &mut Vec<Vec<String>>,
+) -> anyhow::Result<()> {
+    let s = su.s;
+    let label = "ε = 0.005, 4 bounces, bounce threshold ε/10 (the crate's defaults)";
+    let cfg = MeshlessConfig {
+        bounces: 4,
+        bounce_epsilon: None,
+        ..config(s, s.r_eps, 0.005)
+    };
+    let (run, _) = su.run(&cfg)?;
+    r.rows.push(Row::new(
+        format!("indirect energy kept (ours / reference), {label}"),
+        None,
+        run.energy,
+        "",
+        Tolerance::Info,
+    ));
+    r.rows.push(Row::new(
+        format!("indirect relative L1 vs path tracer, {label}"),
+        None,
+        run.l1,
+        "",
+        Tolerance::Info,
+    ));
+    table.push(run_row(format!("R_coarse = {} m, {label}", s.r_eps), &run));
+    Ok(())
+}
 
-    // Dense one-level transfer against the hierarchy at equal finest points.
+/// A dense one-level transfer against the hierarchy at equal finest points: time,
+/// links, and the two one-bounce solutions against each other.
+fn dense_comparison(
+    su: &Setup<'_>,
+    r: &mut Report,
+    table: &mut Vec<Vec<String>>,
+) -> anyhow::Result<()> {
+    let (s, scene, query, points) = (su.s, su.scene, su.query, su.points);
     let hier_cfg = MeshlessConfig {
         receiver_levels: s.dense_levels,
         sender_levels: s.dense_levels.min(2),
@@ -661,8 +709,8 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         c_coarse: hier_cfg.support_factor(s.dense_levels - 1),
         ..config(s, finest, 0.0)
     };
-    let (hier, hier_pre) = run_one(&scene, &query, &hier_cfg, s, &points, &reference)?;
-    let (dense, dense_pre) = run_one(&scene, &query, &dense_cfg, s, &points, &reference)?;
+    let (hier, hier_pre) = su.run(&hier_cfg)?;
+    let (dense, dense_pre) = su.run(&dense_cfg)?;
     table.push(run_row(
         format!(
             "hierarchy, {} levels, R_coarse = {} m, ε = 0.005, 1 bounce",
@@ -675,11 +723,11 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         &dense,
     ));
     // The two one-bounce solutions against each other.
-    let direct = scene_direct(&scene, &query, s.emitter_samples, 1);
-    let hi = Relighter::new(&hier_pre, CpuBackend)?.relight_with(&query, &direct)?;
-    let de = Relighter::new(&dense_pre, CpuBackend)?.relight_with(&query, &direct)?;
-    let hi_v = at_points(&hi, &points);
-    let (hd, _) = relative_l1(&hi_v, &exact_ref(&at_points(&de, &points)));
+    let direct = scene_direct(scene, query, s.emitter_samples, 1);
+    let hi = Relighter::new(&hier_pre, CpuBackend)?.relight_with(query, &direct)?;
+    let de = Relighter::new(&dense_pre, CpuBackend)?.relight_with(query, &direct)?;
+    let hi_v = at_points(&hi, points);
+    let (hd, _) = relative_l1(&hi_v, &exact_ref(&at_points(&de, points)));
     r.rows.push(
         Row::new(
             "dense / hierarchical refinement time at equal finest points",
@@ -719,13 +767,17 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
              5 % at that ε",
         ),
     );
+    Ok(())
+}
 
-    r.tables.push(Table {
-        title: "Runs (one precomputation each; error against the path tracer)".into(),
-        headers: RUN_HEADERS.iter().map(|h| h.to_string()).collect(),
-        rows: table,
-    });
-
+/// The error-against-ε and links-against-receivers figures.
+fn figures(
+    ctx: &Ctx,
+    s: &Sizes,
+    sweep: &[Run],
+    eps_runs: &[Run],
+    r: &mut Report,
+) -> anyhow::Result<()> {
     let path = ctx.figure_path("error-vs-eps.svg");
     xy_plot(
         &path,
@@ -734,7 +786,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         &Axis::log("relative L1 of n·i"),
         &[Series::new(
             format!("R_coarse = {} m", s.r_eps),
-            EPS.iter().zip(&eps_runs).map(|(&e, q)| (e, q.l1)).collect(),
+            EPS.iter().zip(eps_runs).map(|(&e, q)| (e, q.l1)).collect(),
             Style::LinePoints,
         )],
     )?;
@@ -771,5 +823,5 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         path,
         caption: "Links against receivers over the R_coarse sweep".into(),
     });
-    Ok(r)
+    Ok(())
 }
