@@ -1,8 +1,23 @@
 //! Directions of radiance on a patch (Glossy §3.3): the hemisphere above the surface
 //! mapped onto the unit square `(u₃, u₄)` by `wavelux-param`'s [`GlossyHemisphere`]
-//! (the paper's gnomonic-like projection and radial stretch, default) or the
-//! equal-area [`ConcentricHemisphere`] (a knob), in the patch's local shading frame
-//! (normal, tangent).
+//! (the paper's gnomonic-like projection and radial stretch, default), the
+//! equal-area [`ConcentricHemisphere`] (a knob), or [`CosineHemisphere`] (ours, a
+//! knob: equal *projected* solid angle), in the patch's local shading frame (normal,
+//! tangent).
+//!
+//! **Why the cosine-weighted map.** Coefficients are parameter-measure projections
+//! `ℓ = ∫ b L du` (see [`crate::basis`]), while the power a patch sends is
+//! `∫ L cos θ J_ω du`. A coarse node therefore keeps a glossy lobe's energy only where
+//! `cos θ J_ω` is constant over the node's direction cell. For the paper's map
+//! `cos θ J_ω` runs from `π²` at the pole to 0 at the horizon, so a `V⁰` (or any coarse)
+//! projection of a lobe reflected near the normal keeps about `1/π` of its energy and
+//! one reflected near `70°` about 1.2× (see `tests/energy.rs`); the error shrinks only
+//! as refinement resolves the lobe. With [`CosineHemisphere`] `cos θ J_ω = π`
+//! everywhere, so the projection onto any Haar cell keeps the cell's exitance exactly
+//! at every level: the energy a coarse node sends on is the energy it received. It is
+//! the "flat projection" §3.3 rejects for its distortion near the horizon (grazing
+//! directions get little parameter area), which matters for images at grazing angles,
+//! not for exitance.
 //!
 //! Both maps are smooth inside each of the four triangles cut by the square's
 //! diagonals (the radial stretch and the concentric map have derivative kinks there).
@@ -16,7 +31,10 @@
 //! has a factor `1/(1 + t²)` with poles at `t = ±i`: 16 points per axis give 1e-12).
 
 use glam::{DVec2, DVec3};
-use wavelux_param::{ConcentricHemisphere, DirectionMap, GlossyHemisphere};
+use wavelux_param::{
+    ConcentricHemisphere, DirectionMap, GlossyHemisphere, concentric_disc_to_square,
+    concentric_square_to_disc,
+};
 use wavelux_quadrature::GaussLegendre;
 
 use crate::error::{GlossyError, dep};
@@ -29,10 +47,49 @@ pub enum DirectionKind {
     Glossy,
     /// Shirley–Chiu concentric, equal-area (`J_ω = 2π`).
     Concentric,
+    /// Cosine-weighted ([`CosineHemisphere`], ours): equal projected solid angle,
+    /// `cos θ J_ω = π`, so every projection keeps its cell's exitance.
+    Cosine,
 }
 
 static GLOSSY: GlossyHemisphere = GlossyHemisphere;
 static CONCENTRIC: ConcentricHemisphere = ConcentricHemisphere;
+static COSINE: CosineHemisphere = CosineHemisphere;
+
+/// Cosine-weighted hemisphere ↔ square map (Malley's method): Shirley–Chiu's
+/// concentric square → unit disc, then the disc point `p` lifted to the direction
+/// `(p, √(1 − |p|²))`. The disc is the hemisphere's orthographic image, so
+/// `cos θ dω = dA_disc = π du`: `J_ω = π / cos θ` (infinite at the horizon, where the
+/// projected solid angle, not the solid angle, is what the parameter area measures).
+/// Derivative kinks on the square's diagonals, like the other two maps.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CosineHemisphere;
+
+impl DirectionMap for CosineHemisphere {
+    fn direction(&self, uv: DVec2) -> DVec3 {
+        let p = concentric_square_to_disc(uv * 2.0 - 1.0);
+        let z = (1.0 - p.length_squared()).max(0.0).sqrt();
+        DVec3::new(p.x, p.y, z)
+    }
+    fn inverse(&self, d: DVec3) -> Option<DVec2> {
+        let d = d.try_normalize()?;
+        if d.z < 0.0 {
+            return None;
+        }
+        Some((concentric_disc_to_square(DVec2::new(d.x, d.y)) + 1.0) * 0.5)
+    }
+    /// `π / cos θ`, finite (huge) on the square's boundary so that `cos θ J_ω` is 0
+    /// there rather than NaN.
+    fn jacobian(&self, uv: DVec2) -> f64 {
+        std::f64::consts::PI / self.direction(uv).z.max(f64::MIN_POSITIVE)
+    }
+    fn solid_angle(&self) -> f64 {
+        std::f64::consts::TAU
+    }
+    fn is_equal_area(&self) -> bool {
+        false
+    }
+}
 
 impl DirectionKind {
     /// The map.
@@ -41,6 +98,7 @@ impl DirectionKind {
         match self {
             Self::Glossy => &GLOSSY,
             Self::Concentric => &CONCENTRIC,
+            Self::Cosine => &COSINE,
         }
     }
 
@@ -50,6 +108,7 @@ impl DirectionKind {
         match self {
             Self::Glossy => "glossy",
             Self::Concentric => "concentric",
+            Self::Cosine => "cosine",
         }
     }
 
@@ -177,11 +236,19 @@ mod tests {
     use super::*;
 
     #[test]
-    fn projected_solid_angle_is_pi_for_both_maps() {
+    fn projected_solid_angle_is_pi_for_every_map() {
         // Inside each triangle the Glossy Jacobian carries 1/(1 + t²) (poles at
-        // t = ±i): 16 points per axis reach 1e-12.
+        // t = ±i): 16 points per axis reach 1e-12. The cosine map's `cos θ J_ω` is the
+        // constant π; its `J_ω` alone has a 1/√(1 − r²) rim singularity that Gauss
+        // rules do not reach 1e-11 on, so its solid angle is left to the
+        // finite-difference test below.
         let rule = CellRule::new(16).unwrap();
-        for kind in [DirectionKind::Glossy, DirectionKind::Concentric] {
+        let kinds = [
+            DirectionKind::Glossy,
+            DirectionKind::Concentric,
+            DirectionKind::Cosine,
+        ];
+        for kind in kinds {
             for level in 0..4u8 {
                 let n = 1u16 << level;
                 let mut s = 0.0;
@@ -199,7 +266,7 @@ mod tests {
                     "{kind:?} {level}: {s}"
                 );
                 assert!(
-                    (omega - std::f64::consts::TAU).abs() < 1e-11,
+                    kind == DirectionKind::Cosine || (omega - std::f64::consts::TAU).abs() < 1e-11,
                     "{kind:?} {level}: {omega}"
                 );
             }
@@ -207,8 +274,37 @@ mod tests {
     }
 
     #[test]
+    fn jacobian_is_the_maps_area_element() {
+        // |∂ω/∂u₃ × ∂ω/∂u₄| by central differences at points off the diagonals (where
+        // every map is smooth) against `jacobian`.
+        let h = 1e-6;
+        for kind in [
+            DirectionKind::Glossy,
+            DirectionKind::Concentric,
+            DirectionKind::Cosine,
+        ] {
+            for i in 0..16 {
+                for j in 0..16 {
+                    let u = DVec2::new((i as f64 + 0.3) / 16.0, (j as f64 + 0.6) / 16.0);
+                    let du = (kind.direction(u + DVec2::X * h) - kind.direction(u - DVec2::X * h))
+                        / (2.0 * h);
+                    let dv = (kind.direction(u + DVec2::Y * h) - kind.direction(u - DVec2::Y * h))
+                        / (2.0 * h);
+                    let fd = du.cross(dv).length();
+                    let j_u = kind.jacobian(u);
+                    assert!((fd - j_u).abs() < 1e-6 * j_u, "{kind:?} {u}: {fd} vs {j_u}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn inverse_round_trip() {
-        for kind in [DirectionKind::Glossy, DirectionKind::Concentric] {
+        for kind in [
+            DirectionKind::Glossy,
+            DirectionKind::Concentric,
+            DirectionKind::Cosine,
+        ] {
             for i in 0..20 {
                 for j in 0..20 {
                     let u = DVec2::new((i as f64 + 0.5) / 20.0, (j as f64 + 0.5) / 20.0);
