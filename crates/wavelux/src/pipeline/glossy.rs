@@ -50,6 +50,8 @@ pub enum DirectionsArg {
     Glossy,
     /// Equal-area concentric map.
     Concentric,
+    /// Cosine-weighted map (ours): every projection keeps its cell's exitance.
+    Cosine,
 }
 
 /// Final-gather senders (`--gather-mode`).
@@ -118,6 +120,7 @@ pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
         directions: match g.directions {
             DirectionsArg::Glossy => DirectionKind::Glossy,
             DirectionsArg::Concentric => DirectionKind::Concentric,
+            DirectionsArg::Cosine => DirectionKind::Cosine,
         },
         solver,
         decomposition: match g.decomposition {
