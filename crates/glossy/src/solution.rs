@@ -38,6 +38,10 @@ pub struct RoundStats {
     pub candidates: usize,
     /// Largest oracle value.
     pub max_value: f64,
+    /// Candidates whose oracle value is 0 (standard decomposition; with importance
+    /// off: the sending wavelet and its same-type descendants have no coefficient yet,
+    /// as a patch's wavelets get one only once a link reaches them).
+    pub zero_value: usize,
     /// Candidates computed (value ≥ fraction × max, within budgets).
     pub computed: usize,
     /// New links stored (the rest had only zero samples).
@@ -465,6 +469,7 @@ impl GlossySolution {
         let vals = refine::values(&reach, &cands, arrive.as_ref());
         let max = vals.iter().copied().fold(0.0, f64::max);
         rs.max_value = max;
+        rs.zero_value = vals.iter().filter(|&&v| v == 0.0).count();
         if !crate::positive(max) {
             self.stats.stop = "no candidate link has a non-zero oracle value".into();
             return Ok(None);
