@@ -7,8 +7,9 @@
 //! by reciprocity), while its `V⁰` coefficient is the *parameter* mean of the reflected
 //! radiance, `ℓ = ρ_s L_e G A_s ∫ f(ω_i, ω(u)) du`, and the `V⁰` exitance is `π ℓ`. The
 //! two agree only if `cos θ J_ω = π`, i.e. for the cosine-weighted map: with the
-//! paper's map a lobe reflected near the normal keeps about a third of its energy and
-//! one reflected at 65° about 1.2× — the Ward Cornell box's deficit (docs/architecture.md).
+//! paper's map a Ward lobe (α = 0.2) reflected at the normal keeps 0.45 of its energy
+//! and one reflected at 65° 1.14× — the Ward Cornell box's deficit
+//! (docs/architecture.md).
 
 mod common;
 
