@@ -527,7 +527,13 @@ mod tests {
             let mut loops = vec![TrimLoop::polygon(&outer).unwrap()];
             let mut q = vec![outer.iter().map(|p| [p.x, p.y]).collect::<Vec<_>>()];
             if hole {
-                let h: Vec<DVec2> = star(DVec2::new(0.02, -0.01), &[0.1; 5], 0.4)
+                // Inside the outer loop for every draw: a star with k vertices at radii
+                // ≥ 0.2 keeps every edge at least 0.2·min(sin 2π/k, cos π/k) ≥ 0.1 from
+                // the origin (k = 3 is the worst case), and this hole reaches 0.06 +
+                // |(0.02, −0.01)| ≈ 0.082 from it. (A radius of 0.1, 0.122, poked out of
+                // the equilateral rs = [0.2; 3] star: such a region is no valid trim and
+                // the two areas disagree, found by a PROPTEST_RNG_SEED sweep, seed 211.)
+                let h: Vec<DVec2> = star(DVec2::new(0.02, -0.01), &[0.06; 5], 0.4)
                     .into_iter().rev().collect();
                 loops.push(TrimLoop::polygon(&h).unwrap());
                 q.push(h.iter().map(|p| [p.x, p.y]).collect());
