@@ -37,6 +37,11 @@ use wavelux_geometry::backend::{Occluder, OcclusionQuery};
 
 use crate::transfer::{LinkVisibility, Region, TransferCtx};
 
+/// The fake batched occluder shared with `tests/backends.rs`.
+#[cfg(test)]
+#[path = "../tests/support/fake_occluder.rs"]
+mod fake_occluder;
+
 /// Most queries handed to the occluder in one call (2²⁰, issue 17).
 pub const CHUNK_RAYS: usize = 1 << 20;
 
@@ -222,43 +227,12 @@ impl TransferCtx<'_> {
 
 #[cfg(test)]
 mod tests {
-    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::atomic::Ordering;
 
-    use wavelux_geometry::GeometryError;
-    use wavelux_geometry::backend::OcclusionStats;
-
+    use super::fake_occluder::FakeOccluder;
     use super::*;
     use crate::hierarchy::{self, LinkRec};
     use crate::{BasisKind, Prepared, SolverConfig};
-
-    /// Answers as the accelerator and claims every ray for its device, or fails
-    /// from the `fail_from`-th batch on.
-    struct Fake<'a> {
-        accel: &'a Accel,
-        batches: AtomicUsize,
-        fail_from: usize,
-    }
-
-    impl Occluder for Fake<'_> {
-        fn occluded_queries(
-            &self,
-            q: &[OcclusionQuery],
-            out: &mut [bool],
-        ) -> Result<OcclusionStats, GeometryError> {
-            if self.batches.fetch_add(1, Ordering::Relaxed) >= self.fail_from {
-                return Err(GeometryError::Backend {
-                    device: "fake".into(),
-                    message: "lost".into(),
-                });
-            }
-            self.accel.occluded_queries(q, out)?;
-            Ok(OcclusionStats {
-                queries: q.len(),
-                device_rays: q.len(),
-                deferred_rays: 0,
-            })
-        }
-    }
 
     fn same(a: &[LinkRec], b: &[LinkRec]) {
         assert_eq!(a.len(), b.len());
@@ -305,11 +279,7 @@ mod tests {
             )
         };
         for fail_from in [usize::MAX, 1] {
-            let fake = Fake {
-                accel: &prep.accel,
-                batches: AtomicUsize::new(0),
-                fail_from,
-            };
+            let fake = FakeOccluder::new(&prep.accel, fail_from);
             let ctx = prep.transfer().unwrap().with_occluder(&fake);
             let (b, cb) = hierarchy::refine_all(&ctx, &params, &|_| 1.0);
             same(&a, &b);

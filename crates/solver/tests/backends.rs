@@ -4,9 +4,11 @@
 //! the gather on an inexact matrix–vector backend is refined in f64 to the
 //! tolerance.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+#[path = "support/fake_occluder.rs"]
+mod fake_occluder;
 
-use wavelux_geometry::backend::{Occluder, OcclusionBackend, OcclusionQuery, OcclusionStats};
+use fake_occluder::FakeOccluder;
+use wavelux_geometry::backend::{Occluder, OcclusionBackend};
 use wavelux_geometry::{Accel, GeometryError};
 use wavelux_linear::LinearError;
 use wavelux_linear::backend::{CpuMatVec, MatVecBackend, MatVecStats, Matrix, PreparedMatVec};
@@ -24,12 +26,6 @@ struct Fake {
     fail_prepare: bool,
 }
 
-struct FakeOccluder<'a> {
-    accel: &'a Accel,
-    batches: AtomicUsize,
-    fail_from: usize,
-}
-
 impl OcclusionBackend for Fake {
     fn name(&self) -> String {
         "fake".into()
@@ -42,32 +38,7 @@ impl OcclusionBackend for Fake {
                 message: "no memory".into(),
             });
         }
-        Ok(Box::new(FakeOccluder {
-            accel: a,
-            batches: AtomicUsize::new(0),
-            fail_from: self.fail_from,
-        }))
-    }
-}
-
-impl Occluder for FakeOccluder<'_> {
-    fn occluded_queries(
-        &self,
-        q: &[OcclusionQuery],
-        out: &mut [bool],
-    ) -> Result<OcclusionStats, GeometryError> {
-        if self.batches.fetch_add(1, Ordering::Relaxed) >= self.fail_from {
-            return Err(GeometryError::Backend {
-                device: "fake".into(),
-                message: "device lost".into(),
-            });
-        }
-        self.accel.occluded_queries(q, out)?;
-        Ok(OcclusionStats {
-            queries: q.len(),
-            device_rays: q.len(),
-            deferred_rays: 0,
-        })
+        Ok(Box::new(FakeOccluder::new(a, self.fail_from)))
     }
 }
 
