@@ -8,9 +8,14 @@
 //! for every link `(R, E)` covering the leaf, the emitter's radiosity (its pulled
 //! coefficients, the same function the link transports) is integrated point by point
 //! with a `q × q` Gauss rule on pieces of `E` split until each piece is well separated
-//! from the point (`dist ≥ near · radius`), with one shadow ray per point pair (none
-//! where no blocker can meet the shaft between the points' cell and the piece,
-//! [`crate::shaft`]: those rays would all be visible, and count so). The
+//! from the point (`dist ≥ near · radius`). Visibility: none where the link's
+//! transfer block saw every ray visible (or no transport where it saw every ray
+//! blocked); on partly visible links one shadow ray per point pair (the default; on
+//! the Cornell box ~120 M of the default solve's ~160 M rays) or, with
+//! `EstimateOptions::vis_cells` `N ≥ 1`, one ray per receiver point and cell of an
+//! `N × N` grid on the emitter node, shared by the samples in that cell; and none
+//! where no blocker can meet the shaft between the points'
+//! cell and the piece ([`crate::shaft`]: those rays would all be visible). The
 //! links of the hierarchy partition every receiver–emitter pair once, so their sum is
 //! the whole irradiance. The transported part `y = K e = K r + K y` is approximated
 //! on the discrete space, `y ≈ (I − K_h)⁻¹ K_h P r` (`P` the projection onto the leaf
@@ -27,7 +32,8 @@
 //! by its pulled coefficients on `E` (the finer leaves under `E` are averaged, as the
 //! link averages them), transport that no link carries (pairs dropped as not facing,
 //! where the kernel vanishes), and errors of the fine quadrature itself (shadow
-//! boundaries sampled by `q²` rays per point and piece). Norms are over real points
+//! boundaries sampled by `q²` rays per point and piece, or resolved to one emitter
+//! cell per point). Norms are over real points
 //! (VirtualMesh §4: virtual points of masked supports neither count nor emit) in true
 //! area; the relative error is `Σ_c ∫|e_c| / Σ_c ∫|B_h,c − E_c|` (relative to the
 //! reflected radiosity, as the CLI's Monte Carlo check).
@@ -68,7 +74,27 @@ pub struct EstimateOptions {
     pub vis_depth: u32,
     /// Whether to add the transported part `(I − K_h)⁻¹ K_h P r` (else `e ≈ r`).
     pub propagate: bool,
+    /// Visibility of the fine gather on links whose block saw both visible and
+    /// blocked rays (`≤ 8`). `0`: one shadow ray per receiver point and emitter
+    /// sample (every sample of every piece, near-field and shadow-boundary splits
+    /// included). `N ≥ 1`: per receiver point, at most one ray to the centre of each
+    /// of the `N × N` equal cells of the link's emitter node, shared by every emitter
+    /// sample in that cell, so a point costs at most `N²` rays however finely the
+    /// emitter is split around it. See [`DEFAULT_VIS_CELLS`].
+    pub vis_cells: usize,
 }
+
+/// The default [`EstimateOptions::vis_cells`]: `0`, one ray per point and emitter
+/// sample (the rule of every earlier session). Measured on the built-in Cornell box
+/// (default `--target-error 2%`, release, one thread, texel L1 against the 32 768-walk
+/// reference, docs/performance.md), cells 1 / 2 / 3 / traced: estimate rays 6.5 /
+/// 27.3 / 62.0 / 119.8 M, texel L1 0.948 / 1.010 / 1.051 / 1.097 %, CPU 59.2 / 63.4
+/// / 68.4 / 73.8 s. One ray per point and link is not honest everywhere: on Ziegler's
+/// occluded scene (M2, level 1) it estimates 18.8 % against a measured 7.98 %
+/// (`tests/estimate.rs`), because a coarse emitter node is then seen or hidden whole.
+/// `3` passes the estimate tests; it becomes the default once the tests and quick
+/// reproductions of every crate that runs the target loop have been rerun with it.
+pub const DEFAULT_VIS_CELLS: usize = 0;
 
 impl Default for EstimateOptions {
     fn default() -> Self {
@@ -79,6 +105,7 @@ impl Default for EstimateOptions {
             max_depth: 4,
             vis_depth: 1,
             propagate: true,
+            vis_cells: DEFAULT_VIS_CELLS,
         }
     }
 }
@@ -122,6 +149,13 @@ impl EstimateOptions {
                 "must be <= 6",
             ));
         }
+        if self.vis_cells > MAX_VIS_CELLS {
+            return Err(bad(
+                "estimate.vis_cells",
+                self.vis_cells.to_string(),
+                "must be <= 8",
+            ));
+        }
         if self.max_depth > 10 {
             return Err(bad(
                 "estimate.max_depth",
@@ -132,6 +166,13 @@ impl EstimateOptions {
         Ok(())
     }
 }
+
+/// The largest [`EstimateOptions::vis_cells`].
+const MAX_VIS_CELLS: usize = 8;
+
+/// The rays a receiver point has shot to the cells of a link's emitter
+/// ([`EstimateOptions::vis_cells`]): `0` not yet shot, `1` visible, `2` blocked.
+type CellMemo = [u8; MAX_VIS_CELLS * MAX_VIS_CELLS];
 
 /// The estimate of [`estimate`].
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -294,8 +335,9 @@ struct Moments {
 /// or the basis change, and keeps only what the last call used.
 #[derive(Debug, Clone, Default)]
 pub struct EstimateCache {
-    /// `(receiver points, emitter points, near bits, max_depth, vis_depth, n)`.
-    key: Option<(usize, usize, u64, u32, u32, usize)>,
+    /// `(receiver points, emitter points, near bits, max_depth, vis_depth,
+    /// vis_cells, n)`.
+    key: Option<(usize, usize, u64, u32, u32, usize, usize)>,
     links: HashMap<(NodeKey, NodeKey), Moments>,
     leaves: HashMap<(NodeKey, NodeKey, NodeKey), Vec<f64>>,
 }
@@ -370,6 +412,7 @@ struct Fine<'a> {
     near: f64,
     max_depth: u32,
     vis_depth: u32,
+    vis_cells: usize,
     vis: bool,
 }
 
@@ -378,7 +421,8 @@ impl Fine<'_> {
     /// node's orthonormal basis `φ = ψ/√A_node`, accumulated into `out[b]`; shadow
     /// rays only when `vis` and the shaft between the point's cell `rc` and the piece
     /// meets one of the candidate blockers `cands` ([`crate::shaft`]: a culled piece's
-    /// rays would all be visible, and are counted so).
+    /// rays would all be visible, and are counted so), one per sample or one per
+    /// emitter cell kept in `memo` ([`EstimateOptions::vis_cells`]).
     #[allow(clippy::too_many_arguments)]
     fn gather(
         &self,
@@ -393,6 +437,7 @@ impl Fine<'_> {
         vis: bool,
         out: &mut [f64],
         tally: &mut Tally,
+        memo: &mut CellMemo,
     ) {
         let cov = if pe.support.mask.is_some() {
             pe.support.coverage(es.s0, es.t0, es.h)
@@ -419,6 +464,7 @@ impl Fine<'_> {
                     vis,
                     out,
                     tally,
+                    memo,
                 );
             }
             return;
@@ -449,12 +495,17 @@ impl Fine<'_> {
                     tally.visible += 1;
                     seen = true;
                 } else if vis {
-                    let vy = if pe.support.mask.is_some() {
-                        pe.support.visibility_point(u, v)
+                    let seen_here = if self.vis_cells == 0 {
+                        let vy = if pe.support.mask.is_some() {
+                            pe.support.visibility_point(u, v)
+                        } else {
+                            y
+                        };
+                        self.ctx.visible(pt.v, pr, vy, pe, &mut tally.rays)
                     } else {
-                        y
+                        self.cell_visible(pt, pr, pe, en, (u, v), memo, &mut tally.rays)
                     };
-                    if !self.ctx.visible(pt.v, pr, vy, pe, &mut tally.rays) {
+                    if !seen_here {
                         tally.blocked += 1;
                         hidden = true;
                         continue;
@@ -485,11 +536,50 @@ impl Fine<'_> {
                     vis,
                     out,
                     tally,
+                    memo,
                 );
             }
             return;
         }
         out.iter_mut().zip(&acc).for_each(|(o, a)| *o += a);
+    }
+
+    /// Whether the point sees the emitter sample at parameters `uv` of the link's
+    /// emitter node `en`, answered by the ray to the centre of the sample's cell
+    /// among `vis_cells × vis_cells` equal cells of `en` (its visibility point on a
+    /// masked support), shot once per point and cell (`memo`).
+    #[allow(clippy::too_many_arguments)]
+    fn cell_visible(
+        &self,
+        pt: &Point,
+        pr: &Patch,
+        pe: &Patch,
+        en: &Region,
+        uv: (f64, f64),
+        memo: &mut CellMemo,
+        rays: &mut u64,
+    ) -> bool {
+        let g = self.vis_cells;
+        let cells = g as f64;
+        // Negative offsets (rounding at the node's edge) saturate to cell 0.
+        let cell = |x: f64, x0: f64| (((x - x0) / en.h * cells) as usize).min(g - 1);
+        let (i, j) = (cell(uv.0, en.s0), cell(uv.1, en.t0));
+        let slot = &mut memo[j * g + i];
+        if *slot == 0 {
+            let cu = en.s0 + en.h * (i as f64 + 0.5) / cells;
+            let cv = en.t0 + en.h * (j as f64 + 0.5) / cells;
+            let vy = if pe.support.mask.is_some() {
+                pe.support.visibility_point(cu, cv)
+            } else {
+                pe.support.point_normal(cu, cv).0
+            };
+            *slot = if self.ctx.visible(pt.v, pr, vy, pe, rays) {
+                1
+            } else {
+                2
+            };
+        }
+        *slot == 1
     }
 }
 
@@ -553,7 +643,15 @@ pub fn estimate_cached(
         opts.emitter_points
     };
     let recv_rule = rule(p)?;
-    let key = (p, q, opts.near.to_bits(), opts.max_depth, opts.vis_depth, n);
+    let key = (
+        p,
+        q,
+        opts.near.to_bits(),
+        opts.max_depth,
+        opts.vis_depth,
+        opts.vis_cells,
+        n,
+    );
     if cache.key != Some(key) {
         *cache = EstimateCache {
             key: Some(key),
@@ -566,6 +664,7 @@ pub fn estimate_cached(
         near: opts.near,
         max_depth: opts.max_depth,
         vis_depth: opts.vis_depth,
+        vis_cells: opts.vis_cells,
         vis: ctx.visibility_mode() != Visibility::Off,
     };
     let patches = &sol.patches;
@@ -863,6 +962,7 @@ fn fine_at(
         None
     };
     for (pt, out) in pts.iter().zip(m.chunks_exact_mut(n)) {
+        let mut memo: CellMemo = [0; MAX_VIS_CELLS * MAX_VIS_CELLS];
         fine.gather(
             pt,
             pr,
@@ -875,6 +975,7 @@ fn fine_at(
             vis,
             out,
             &mut tally,
+            &mut memo,
         );
     }
     (m, tally)

@@ -78,7 +78,9 @@ use wavelux_scene::Scene;
 
 pub use basis::{BasisKind, TreeBasis};
 pub use error::SolverError;
-pub use estimate::{ErrorEstimate, EstimateCache, EstimateOptions, estimate, estimate_cached};
+pub use estimate::{
+    DEFAULT_VIS_CELLS, ErrorEstimate, EstimateCache, EstimateOptions, estimate, estimate_cached,
+};
 pub use hierarchy::{Hierarchy, LinkRec, NodeKey, Oracle, RefineParams, SplitPolicy};
 pub use mask::{Coverage, Mask};
 pub use solution::{Energy, Solution, Statistics};

@@ -53,6 +53,7 @@ fn reference(name: &'static str) -> &'static (Solution, f64) {
     let r: &'static (Solution, f64) = Box::leak(Box::new(solve_and_estimate(
         &scene,
         &config(BasisKind::Multiwavelet(3), 3, 1e-4),
+        &EstimateOptions::default(),
     )));
     c.push((name, r));
     r
@@ -70,11 +71,15 @@ fn config(basis: BasisKind, max_level: u8, eps: f64) -> SolverConfig {
 }
 
 /// Solves and estimates; returns the solution and its estimated relative L1 error.
-fn solve_and_estimate(scene: &Scene, cfg: &SolverConfig) -> (Solution, f64) {
+fn solve_and_estimate(
+    scene: &Scene,
+    cfg: &SolverConfig,
+    opts: &EstimateOptions,
+) -> (Solution, f64) {
     let prep = Prepared::new(scene, cfg).unwrap();
     let sol = solve_prepared(&prep).unwrap();
     let ctx = prep.transfer().unwrap();
-    let est = estimate(&ctx, &sol, &EstimateOptions::default()).unwrap();
+    let est = estimate(&ctx, &sol, opts).unwrap();
     assert_eq!(
         est.leaf_error.len(),
         sol.system().hierarchy().leaves().len()
@@ -91,7 +96,10 @@ fn solve_and_estimate(scene: &Scene, cfg: &SolverConfig) -> (Solution, f64) {
 
 /// On the unoccluded and the occluded Ziegler scenes (interreflection, a shadow), the
 /// estimate of a coarse solution is within a factor 2 of its error measured against
-/// a fine solution whose own estimate is at most a fifth of that error.
+/// a fine solution whose own estimate is at most a fifth of that error, with each
+/// visibility rule of the fine gather (3 × 3 emitter cells; one ray per point pair,
+/// the default). One ray per point and link (1 × 1) is not: on the occluded scene at
+/// M2 level 1 it reads 18.8 % against a measured 7.98 %.
 #[test]
 fn estimate_within_factor_two_of_the_measured_error() {
     for (name, basis, level) in [
@@ -102,11 +110,15 @@ fn estimate_within_factor_two_of_the_measured_error() {
         let scene = builtin(name).unwrap();
         let (fine, fine_est) = reference(name);
         let fine_est = *fine_est;
-        {
-            let (sol, est) = solve_and_estimate(&scene, &config(basis, level, 1e-4));
+        for vis_cells in [3, 0] {
+            let opts = EstimateOptions {
+                vis_cells,
+                ..EstimateOptions::default()
+            };
+            let (sol, est) = solve_and_estimate(&scene, &config(basis, level, 1e-4), &opts);
             let meas = measured(&sol, fine, 64);
             println!(
-                "{name} {} level {level}: estimate {est:.4} measured {meas:.4} (fine estimate {fine_est:.5})",
+                "{name} {} level {level} vis_cells {vis_cells}: estimate {est:.4} measured {meas:.4} (fine estimate {fine_est:.5})",
                 basis.name()
             );
             assert!(
@@ -389,7 +401,74 @@ fn bad_options_are_typed_errors() {
             },
             "estimate.vis_depth",
         ),
+        (
+            EstimateOptions {
+                vis_cells: 9,
+                ..EstimateOptions::default()
+            },
+            "estimate.vis_cells",
+        ),
     ] {
         assert_eq!(field(estimate(&ctx, &sol, &o).unwrap_err()), name);
     }
 }
+
+/// The per-cell visibility of the fine gather (`vis_cells` 3) against one ray per
+/// point pair (`vis_cells = 0`, the default) on Ziegler's occluded scene, where the
+/// blocker's shadow crosses links: the cells shoot fewer rays and move the estimate
+/// and every face's by little; both rules stay within a factor 2 of the measured error (the test above, with each rule).
+#[test]
+fn cell_visibility_shoots_fewer_rays_and_keeps_the_estimate() {
+    let scene = builtin("ziegler-occluded").unwrap();
+    for (basis, level) in [
+        (BasisKind::Haar, 2),
+        (BasisKind::Multiwavelet(2), 1),
+        (BasisKind::Multiwavelet(3), 2),
+    ] {
+        let prep = Prepared::new(&scene, &config(basis, level, 1e-4)).unwrap();
+        let sol = solve_prepared(&prep).unwrap();
+        let ctx = prep.transfer().unwrap();
+        let run = |vis_cells: usize| {
+            estimate(
+                &ctx,
+                &sol,
+                &EstimateOptions {
+                    vis_cells,
+                    ..EstimateOptions::default()
+                },
+            )
+            .unwrap()
+        };
+        let traced = run(0);
+        assert!(traced.rays > 0, "the shadow crosses links");
+        let n = 3;
+        let cells = run(n);
+        let moved = (cells.relative_l1 - traced.relative_l1).abs() / traced.relative_l1;
+        println!(
+            "{} level {level}: estimate traced {:.5} ({} rays), {n}x{n} cells {:.5} ({} rays), moved {moved:.4}",
+            basis.name(),
+            traced.relative_l1,
+            traced.rays,
+            cells.relative_l1,
+            cells.rays
+        );
+        assert!(cells.rays < traced.rays, "{} rays", cells.rays);
+        assert!(moved <= CELL_MOVE, "estimate moved by {moved}");
+        for (p, (a, b)) in traced
+            .patch_relative()
+            .iter()
+            .zip(cells.patch_relative())
+            .enumerate()
+        {
+            assert!(
+                (a - b).abs() <= CELL_MOVE * a.max(traced.relative_l1),
+                "patch {p}: {a} vs {b}"
+            );
+        }
+    }
+}
+
+/// How far the per-cell visibility may move the estimate, relative to the traced
+/// one (a judgment bound: a fifth keeps the factor-2 agreement with the measured
+/// error meaningful; the measured moves are printed).
+const CELL_MOVE: f64 = 0.2;

@@ -111,11 +111,16 @@ pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
         }
         return target::plan(a, t);
     }
-    if a.face_target.is_some() {
-        bail!(
-            "--face-target applies to the target-error loop (--target-error, or a gather \
-             solve without --eps, --oracle, --max-level or --basis cdv)"
-        );
+    for (given, flag) in [
+        (a.face_target.is_some(), "--face-target"),
+        (a.estimate_visibility.is_some(), "--estimate-visibility"),
+    ] {
+        if given {
+            bail!(
+                "{flag} applies to the target-error loop (--target-error, or a gather \
+                 solve without --eps, --oracle, --max-level or --basis cdv)"
+            );
+        }
     }
     match a.method {
         MethodArg::Reference => reference::plan(a),

@@ -74,6 +74,9 @@ pub fn plan(a: &SolveArgs, target: f64) -> anyhow::Result<Box<dyn Method>> {
     cfg.solver.linear_method = linear_method;
     cfg.solver.max_iterations = a.max_iterations;
     cfg.solver.tolerance = a.tolerance.unwrap_or(1e-6);
+    if let Some(n) = a.estimate_visibility {
+        cfg.estimate.vis_cells = n;
+    }
     cfg.validate().context("invalid --target-error option")?;
     Ok(Box::new(Target {
         cfg,
@@ -262,6 +265,41 @@ mod tests {
         let err = crate::pipeline::plan(&args).err().expect("an error");
         assert!(err.to_string().contains("--face-target"), "{err}");
         let args = SolveOnly::try_parse_from(["wavelux", "--face-target", "3%"])
+            .expect("valid arguments")
+            .args;
+        assert!(crate::pipeline::plan(&args).is_ok());
+    }
+
+    /// `--estimate-visibility` takes `traced` or a cell count in 1..=8; it is an
+    /// error where no target-error loop runs.
+    #[test]
+    fn the_estimate_visibility_parses_and_needs_the_target_loop() {
+        let vis_of = |args: &[&str]| {
+            let mut v = vec!["wavelux"];
+            v.extend_from_slice(args);
+            SolveOnly::try_parse_from(v).map(|s| s.args.estimate_visibility)
+        };
+        assert_eq!(vis_of(&[]).unwrap(), None);
+        assert_eq!(
+            vis_of(&["--estimate-visibility", "traced"]).unwrap(),
+            Some(0)
+        );
+        assert_eq!(vis_of(&["--estimate-visibility", "4"]).unwrap(), Some(4));
+        for bad in ["0", "9", "-1", "x", "2.5"] {
+            assert!(vis_of(&["--estimate-visibility", bad]).is_err(), "{bad}");
+        }
+        let args = SolveOnly::try_parse_from([
+            "wavelux",
+            "--estimate-visibility",
+            "traced",
+            "--max-level",
+            "2",
+        ])
+        .expect("valid arguments")
+        .args;
+        let err = crate::pipeline::plan(&args).err().expect("an error");
+        assert!(err.to_string().contains("--estimate-visibility"), "{err}");
+        let args = SolveOnly::try_parse_from(["wavelux", "--estimate-visibility", "2"])
             .expect("valid arguments")
             .args;
         assert!(crate::pipeline::plan(&args).is_ok());
