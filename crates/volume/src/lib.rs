@@ -137,7 +137,9 @@
 //! suite ([`backend::conformance`]) for every backend (wgpu comes later). While an
 //! active set is relaxed, the gather is linear in the emission, so the system has the
 //! projector record it once ([`backend::Projector::record`], [`backend::Transport`])
-//! and replays it instead of re-projecting at every relaxation ([`system`] docs).
+//! and replays it instead of re-projecting at every relaxation ([`system`] docs); with
+//! adaptive supersampling the recording keeps the pixels supersampled at the sweep
+//! that records.
 //!
 //! # Deviations from the paper (see also `docs/architecture.md`)
 //! Exact chords instead of point-sampled slices; exact collision weights instead of

@@ -128,7 +128,8 @@ pub struct GlobalCubeConfig {
     /// Largest recorded transport per active set, bytes (default
     /// [`crate::system::DEFAULT_TRANSPORT_MEMORY`], 1 GiB; 0 re-projects at every
     /// relaxation). The results are the same either way up to the order of
-    /// floating-point sums ([`crate::system`] docs).
+    /// floating-point sums, except with adaptive supersampling, whose pixels the
+    /// recording keeps ([`crate::system`] docs).
     pub transport_memory: usize,
 }
 
@@ -242,6 +243,21 @@ pub struct Refined {
     pub by_static: bool,
 }
 
+impl Refined {
+    /// The `leaves` marked in `split`, with `by_static` telling which oracle split them.
+    fn list(leaves: &[crate::active::Leaf], split: &[bool], by_static: &[bool]) -> Vec<Self> {
+        leaves
+            .iter()
+            .zip(split.iter().zip(by_static))
+            .filter(|(_, (s, _))| **s)
+            .map(|(l, (_, b))| Refined {
+                leaf: *l,
+                by_static: *b,
+            })
+            .collect()
+    }
+}
+
 /// Solves `grid` with `config` on `projector`. `progress` is called after every
 /// record (for progress bars).
 ///
@@ -294,6 +310,24 @@ fn solve_observed(
     let mut cache = WeightCache::default();
     let mut work = Work::default();
     let mut steps = Vec::new();
+    // The state as a solution (snapshots and the result).
+    let solution = |sys: &System<'_>,
+                    chi: Vec<FaceRgb>,
+                    collided: &[FaceRgb],
+                    steps: Vec<StepRecord>,
+                    work: Work| {
+        VolumeSolution::new(
+            grid,
+            *cfg,
+            projector.name(),
+            sys,
+            chi,
+            collided,
+            steps,
+            work,
+            t_all.elapsed().as_secs_f64(),
+        )
+    };
 
     // Lowpass solve.
     let t = Instant::now();
@@ -318,77 +352,19 @@ fn solve_observed(
     progress(&rec);
     steps.push(rec);
     if let Some(f) = snapshot.as_mut() {
-        f(VolumeSolution::new(
-            grid,
-            *cfg,
-            projector.name(),
-            &sys,
-            chi.clone(),
-            &collided,
-            steps.clone(),
-            work,
-            t_all.elapsed().as_secs_f64(),
-        ));
+        f(solution(&sys, chi.clone(), &collided, steps.clone(), work));
     }
 
-    // Thresholds in absolute units.
-    let range = |a: &ndarray::Array3<f64>| {
-        let (lo, hi) = a
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-                (l.min(v), h.max(v))
-            });
-        (hi - lo).max(0.0)
-    };
-    let thr_opacity = cfg.threshold_opacity.resolve(range(&grid.opacity));
-    let thr_source = cfg
-        .threshold_source
-        .resolve((0..3).map(|c| range(&grid.source[c])).fold(0.0, f64::max));
-    let chi_max = chi
-        .iter()
-        .flat_map(|f| f.iter().flat_map(|c| c.iter().copied()))
-        .fold(0.0, f64::max);
-    let thr_chi = cfg.threshold_chi.resolve(chi_max);
-
+    let thr = Thresholds::resolve(grid, cfg, &chi);
     for m in (0..cfg.levels).rev() {
         // First refinement of the level: static and/or dynamic (or everything).
-        let mut split = vec![false; sys.len()];
-        let mut by_static = vec![false; sys.len()];
-        let (mut n_static, mut n_dynamic) = (0, 0);
-        for (i, leaf) in sys.set.leaves.iter().enumerate() {
-            if leaf.level as usize != m + 1 {
-                continue;
-            }
-            let s = match cfg.oracle {
-                Oracle::None => true,
-                Oracle::Static | Oracle::Both => {
-                    static_oracle(&hierarchy, leaf, thr_opacity, thr_source)
-                }
-                Oracle::Dynamic => false,
-            };
-            let d = !s
-                && matches!(cfg.oracle, Oracle::Dynamic | Oracle::Both)
-                && dynamic_oracle(&chi[i], thr_chi);
-            split[i] = s || d;
-            by_static[i] = s;
-            n_static += usize::from(s);
-            n_dynamic += usize::from(d);
-        }
+        let (mut split, mut by_static, mut n_static, mut n_dynamic) =
+            first_split(&sys, &hierarchy, &chi, cfg, &thr, m);
         let mut step = 0;
         while n_static + n_dynamic > 0 && step < cfg.max_steps {
             step += 1;
             let t = Instant::now();
-            let refined: Vec<Refined> = sys
-                .set
-                .leaves
-                .iter()
-                .zip(split.iter().zip(&by_static))
-                .filter(|(_, (s, _))| **s)
-                .map(|(l, (_, b))| Refined {
-                    leaf: *l,
-                    by_static: *b,
-                })
-                .collect();
+            let refined = Refined::list(&sys.set.leaves, &split, &by_static);
             let (set, origin) = sys.set.refine(&split);
             let new_sys = System::new(projector, settings, &hierarchy, grid.voxel, set, &mut cache);
             chi = initialise(&sys, &new_sys, &origin, &chi);
@@ -408,7 +384,7 @@ fn solve_observed(
             let mut next_dynamic = 0;
             if matches!(cfg.oracle, Oracle::Dynamic | Oracle::Both) {
                 for (i, leaf) in sys.set.leaves.iter().enumerate() {
-                    if leaf.level as usize == m + 1 && dynamic_oracle(&chi[i], thr_chi) {
+                    if leaf.level as usize == m + 1 && dynamic_oracle(&chi[i], thr.chi) {
                         split[i] = true;
                         next_dynamic += 1;
                     }
@@ -430,17 +406,7 @@ fn solve_observed(
             progress(&rec);
             steps.push(rec);
             if let Some(f) = snapshot.as_mut() {
-                f(VolumeSolution::new(
-                    grid,
-                    *cfg,
-                    projector.name(),
-                    &sys,
-                    chi.clone(),
-                    &collided,
-                    steps.clone(),
-                    work,
-                    t_all.elapsed().as_secs_f64(),
-                ));
+                f(solution(&sys, chi.clone(), &collided, steps.clone(), work));
             }
             n_static = 0;
             n_dynamic = next_dynamic;
@@ -467,17 +433,74 @@ fn solve_observed(
     };
     progress(&rec);
     steps.push(rec);
-    Ok(VolumeSolution::new(
-        grid,
-        *cfg,
-        projector.name(),
-        &sys,
-        chi,
-        &collided,
-        steps,
-        work,
-        t_all.elapsed().as_secs_f64(),
-    ))
+    Ok(solution(&sys, chi, &collided, steps, work))
+}
+
+/// The oracles' thresholds in absolute units.
+struct Thresholds {
+    opacity: f64,
+    source: f64,
+    chi: f64,
+}
+
+impl Thresholds {
+    /// σ and `χᵗ` over the input's range, face powers over the lowpass solution `chi`.
+    fn resolve(grid: &VolumeGrid, cfg: &GlobalCubeConfig, chi: &[FaceRgb]) -> Self {
+        let range = |a: &ndarray::Array3<f64>| {
+            let (lo, hi) = a
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                    (l.min(v), h.max(v))
+                });
+            (hi - lo).max(0.0)
+        };
+        let chi_max = chi
+            .iter()
+            .flat_map(|f| f.iter().flat_map(|c| c.iter().copied()))
+            .fold(0.0, f64::max);
+        Self {
+            opacity: cfg.threshold_opacity.resolve(range(&grid.opacity)),
+            source: cfg
+                .threshold_source
+                .resolve((0..3).map(|c| range(&grid.source[c])).fold(0.0, f64::max)),
+            chi: cfg.threshold_chi.resolve(chi_max),
+        }
+    }
+}
+
+/// The first refinement into level `m`: which level-`m + 1` leaves split, which of
+/// them by the static oracle, and the static and dynamic counts.
+fn first_split(
+    sys: &System<'_>,
+    hierarchy: &Hierarchy,
+    chi: &[FaceRgb],
+    cfg: &GlobalCubeConfig,
+    thr: &Thresholds,
+    m: usize,
+) -> (Vec<bool>, Vec<bool>, usize, usize) {
+    let mut split = vec![false; sys.len()];
+    let mut by_static = vec![false; sys.len()];
+    let (mut n_static, mut n_dynamic) = (0, 0);
+    for (i, leaf) in sys.set.leaves.iter().enumerate() {
+        if leaf.level as usize != m + 1 {
+            continue;
+        }
+        let s = match cfg.oracle {
+            Oracle::None => true,
+            Oracle::Static | Oracle::Both => {
+                static_oracle(hierarchy, leaf, thr.opacity, thr.source)
+            }
+            Oracle::Dynamic => false,
+        };
+        let d = !s
+            && matches!(cfg.oracle, Oracle::Dynamic | Oracle::Both)
+            && dynamic_oracle(&chi[i], thr.chi);
+        split[i] = s || d;
+        by_static[i] = s;
+        n_static += usize::from(s);
+        n_dynamic += usize::from(d);
+    }
+    (split, by_static, n_static, n_dynamic)
 }
 
 fn static_oracle(

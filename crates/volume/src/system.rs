@@ -27,6 +27,12 @@
 //! [`crate::backend::Transport`]) within [`SystemSettings::transport_memory`] bytes;
 //! every later gather of the set is then a sparse product instead of a new projection.
 //! A set that is applied once (a refinement step with one relaxation) never records.
+//! With adaptive supersampling (the CPU projector's default) the pixels supersampled
+//! are those of the emission of the sweep that records (the second sweep of the set),
+//! kept for the set's later sweeps: the replayed solve differs from the re-projected
+//! one, whose supersampled pixels follow each sweep's radiance, where a pixel's
+//! contrast crosses the threshold after the recording (measured in
+//! docs/performance.md, "wavelux-volume").
 
 use std::time::Instant;
 
@@ -214,8 +220,13 @@ impl<'a> System<'a> {
 
     /// The recorded transport, recording it when one full sweep has gone through the
     /// projector already (module docs); `None` while it has not, or when the
-    /// projector declines.
-    fn transport(&self, work: &mut Work) -> Result<Option<&Transport>, VolumeError> {
+    /// projector declines. `emission` (the gather's) makes the projector's adaptive
+    /// choices for the recording ([`Projector::record`]).
+    fn transport(
+        &self,
+        emission: &Emission<'_>,
+        work: &mut Work,
+    ) -> Result<Option<&Transport>, VolumeError> {
         use std::sync::atomic::Ordering;
         if let Some(t) = self.transport.get() {
             return Ok(t.as_ref());
@@ -228,6 +239,7 @@ impl<'a> System<'a> {
         let t0 = Instant::now();
         let t = self.projector.record(
             &self.scene(),
+            emission,
             self.settings.collision,
             &self.receivers,
             self.settings.transport_memory,
@@ -316,7 +328,11 @@ impl<'a> System<'a> {
     ) -> Result<Vec<FaceRgb>, VolumeError> {
         let mut out = vec![[[0.0; 3]; 6]; range.len()];
         let first = range.start;
-        if let Some(tr) = self.transport(work)? {
+        let emission = Emission {
+            coefficients: e,
+            power: p,
+        };
+        if let Some(tr) = self.transport(&emission, work)? {
             let t = Instant::now();
             tr.apply(e, range.clone(), &mut out)?;
             work.replayed += range.len() as u64;
@@ -325,10 +341,7 @@ impl<'a> System<'a> {
             let t = Instant::now();
             let stats = self.projector.gather(
                 &self.scene(),
-                &Emission {
-                    coefficients: e,
-                    power: p,
-                },
+                &emission,
                 self.settings.collision,
                 &self.receivers[range.clone()],
                 &mut out,

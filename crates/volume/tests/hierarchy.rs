@@ -226,6 +226,66 @@ fn recorded_transport_gives_the_projected_solution() {
     assert_eq!(tiny.chi, projected.chi);
 }
 
+/// Largest face-power difference of two solutions relative to the largest face power
+/// of `b`.
+fn chi_gap(a: &VolumeSolution, b: &VolumeSolution) -> f64 {
+    let scale = b
+        .chi
+        .iter()
+        .flatten()
+        .flatten()
+        .fold(0.0f64, |m, &v| m.max(v.abs()));
+    let d = a
+        .chi
+        .iter()
+        .flatten()
+        .flatten()
+        .zip(b.chi.iter().flatten().flatten())
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    d / scale
+}
+
+#[test]
+fn supersampled_transport_is_recorded_close_to_the_projected_solution() {
+    // The default projector supersamples adaptively; the recording keeps the pixels
+    // the recording sweep supersamples, so the replayed solve is not the re-projected
+    // one (whose pixels follow every sweep's radiance). Freezing the pixels must move
+    // the solution by less than supersampling itself does: the recorded solve is
+    // closer to the re-projected one than the solve without supersampling is.
+    let g = room();
+    // The static oracle only, so that the three solves refine the same cells.
+    let base = GlobalCubeConfig {
+        levels: 1,
+        framebuffer: 4,
+        oracle: Oracle::Static,
+        ..GlobalCubeConfig::default()
+    }
+    .with_threshold(13.0);
+    let aa = CpuProjector::default();
+    let solve_with =
+        |cfg: &GlobalCubeConfig, p: &CpuProjector| solve(&g, cfg, p, &mut |_| {}).unwrap();
+    let recorded = solve_with(&base, &aa);
+    let reprojected = GlobalCubeConfig {
+        transport_memory: 0,
+        ..base
+    };
+    let projected = solve_with(&reprojected, &aa);
+    let plain = solve_with(
+        &reprojected,
+        &CpuProjector::new(Projection::Exact, AntiAlias::OFF)
+            .with_receiver_samples(aa.receiver_samples),
+    );
+    assert!(recorded.work.recorded >= 1 && recorded.work.replayed > 0);
+    assert_eq!(projected.work.recorded, 0);
+    assert!(recorded.work.gather.rays < projected.work.gather.rays / 4);
+    assert_eq!(recorded.elements(), projected.elements());
+    assert_eq!(plain.elements(), projected.elements());
+    let (frozen, supersampling) = (chi_gap(&recorded, &projected), chi_gap(&plain, &projected));
+    eprintln!("recorded vs projected {frozen:.3e}, plain vs projected {supersampling:.3e}");
+    assert!(supersampling > 0.0);
+    assert!(frozen < 0.5 * supersampling, "{frozen} vs {supersampling}");
+}
+
 #[test]
 fn routing_conserves_the_scattered_power() {
     let g = room();

@@ -648,23 +648,21 @@ impl Tracer<'_> {
     }
 
     /// The receiver's sample rays along `d`: `k²` points of every entry face `e` with
-    /// a positive weight (`per_face`; handed with `Some(e)`), or `k³` points of the box
+    /// a positive weight (`v.per_face`; handed with `Some(e)`), or `k³` points of the box
     /// (handed with `None`: they serve all three entry faces), each with its share
     /// `1/k²` or `1/k³`.
-    #[allow(clippy::too_many_arguments)] // reason: the receiver's box, direction and faces
     fn for_samples(
         &self,
-        lo: [i64; 3],
-        size: i64,
+        v: &ReceiverView,
         d: [f64; 3],
         entries: [u8; 3],
         weights: [f64; 3],
-        per_face: bool,
         mut each: impl FnMut(Ray, Option<usize>, f64),
     ) {
+        let (lo, size) = (v.lo, v.size);
         let k = self.samples.max(1);
         let at = |j: usize| (j as f64 + 0.5) / k as f64;
-        if per_face {
+        if v.per_face {
             // k × k points of each entry face (the midpoints of a k × k split).
             let inv = 1.0 / (k * k) as f64;
             for e in 0..3 {
@@ -692,21 +690,18 @@ impl Tracer<'_> {
     }
 
     /// Radiance per entry face `k` (of `entries`) along direction `d`.
-    #[allow(clippy::too_many_arguments)] // reason: the receiver's box, direction and faces
     fn radiances(
         &self,
-        lo: [i64; 3],
-        size: i64,
+        v: &ReceiverView,
         d: [f64; 3],
         entries: [u8; 3],
         weights: [f64; 3],
-        per_face: bool,
         footprint: f64,
     ) -> ([[f64; 3]; 3], u64) {
         let mut out = [[0.0; 3]; 3];
         let mut sum = [0.0; 3];
         let mut steps = 0;
-        self.for_samples(lo, size, d, entries, weights, per_face, |ray, e, inv| {
+        self.for_samples(v, d, entries, weights, |ray, e, inv| {
             let tr = self.trace(ray, footprint);
             steps += tr.steps;
             let acc = match e {
@@ -717,7 +712,7 @@ impl Tracer<'_> {
                 acc[ch] += inv * tr.radiance[ch];
             }
         });
-        if !per_face {
+        if !v.per_face {
             out = [sum; 3];
         }
         (out, steps)
@@ -729,52 +724,143 @@ impl Tracer<'_> {
         self.touches_opaque(lo, size) || (self.samples > 1 && cell.extinction == f64::INFINITY)
     }
 
-    /// The transport row of receiver `r` without supersampling: the weights with which
-    /// the sender faces' coefficients reach its entry faces (the linear map of
-    /// [`Tracer::gather_one`] with [`AntiAlias::OFF`]), sorted by (column, row) with
-    /// duplicates summed, and the cells composited.
+    /// The receiver `r`'s framebuffer settings: its box, collision depth, whether it
+    /// gathers on its faces and the pixel footprint of `map`.
+    fn receiver_view(&self, r: &Receiver, map: &CubeMap) -> ReceiverView {
+        let cell = &self.scene.cells[r.cell as usize];
+        ReceiverView {
+            lo: cell.origin.map(i64::from),
+            size: i64::from(cell.size),
+            depth: cell.depth(),
+            // Opaque receivers are surfaces: with more than one sample they gather on
+            // their faces.
+            per_face: self.gathers_per_face(cell),
+            footprint: 2.0 / map.side as f64,
+            total_weight: cell.total_weight,
+        }
+    }
+
+    /// The first pass over one frustum's pixels `face` (of a map of side `n`): every
+    /// pixel's collision weights and, with `trace`, the entry radiances of its centre
+    /// ray(s); with supersampling on, the pixels it replaces (those whose weighted
+    /// mean radiance contrasts with one of their neighbours, [`AntiAlias`]). Returns
+    /// the cells composited.
+    fn centre_pass(
+        &self,
+        v: &ReceiverView,
+        face: &[crate::cubemap::Pixel],
+        collision: Collision,
+        aa: &AntiAlias,
+        trace: bool,
+        pass: &mut FacePass,
+    ) -> u64 {
+        let n = pass.side;
+        let mut steps = 0;
+        for (k, pix) in face.iter().enumerate() {
+            let w = entry_weights(pix.abs, v.depth, collision);
+            pass.weights[k] = w;
+            let wt = w[0] + w[1] + w[2];
+            if wt <= 0.0 || !trace {
+                pass.rad[k] = [[0.0; 3]; 3];
+                pass.mean[k] = [0.0; 3];
+                continue;
+            }
+            let (l, s) = self.radiances(v, pix.dir, pix.entry, w, v.footprint);
+            steps += s;
+            pass.rad[k] = l;
+            pass.mean[k] =
+                [0, 1, 2].map(|c| (w[0] * l[0][c] + w[1] * l[1][c] + w[2] * l[2][c]) / wt);
+        }
+        pass.flag.fill(false);
+        if aa.subdivisions > 1 && trace {
+            for j in 0..n {
+                for i in 0..n {
+                    let k = i + n * j;
+                    // Right, up, and both diagonals: a silhouette corner inside a
+                    // pixel differs from its diagonal neighbour only.
+                    for (di, dj) in [(1isize, 0isize), (0, 1), (1, 1), (1, -1)] {
+                        let (ii, jj) = (i as isize + di, j as isize + dj);
+                        if ii < 0 || jj < 0 || ii >= n as isize || jj >= n as isize {
+                            continue;
+                        }
+                        let q = ii as usize + n * jj as usize;
+                        if aa.contrasts(&pass.mean[k], &pass.mean[q]) {
+                            pass.flag[k] = true;
+                            pass.flag[q] = true;
+                        }
+                    }
+                }
+            }
+        }
+        steps
+    }
+
+    /// The transport row of receiver `r`: the weights with which the sender faces'
+    /// coefficients reach its entry faces (the linear map of [`Tracer::gather_one`]
+    /// with the same `aa`, the supersampled pixels being those the tracer's emission
+    /// selects), sorted by (column, row) with duplicates summed, and the cells
+    /// composited.
     fn record_one(
         &self,
         r: &Receiver,
         map: &CubeMap,
         collision: Collision,
+        aa: &AntiAlias,
     ) -> (Vec<(u32, u8, f64)>, u64) {
-        let cell = &self.scene.cells[r.cell as usize];
-        let size = i64::from(cell.size);
-        let lo = cell.origin.map(i64::from);
-        let depth = cell.depth();
-        let per_face = self.gathers_per_face(cell);
-        let footprint = 2.0 / map.side as f64;
+        let v = self.receiver_view(r, map);
+        let n = map.side;
+        let supersampled = aa.subdivisions > 1;
+        let mut pass = FacePass::new(n);
         let mut raw = Vec::new();
         let mut norm = 0.0;
         let mut steps = 0;
-        for pix in &map.pixels {
-            let w = entry_weights(pix.abs, depth, collision);
-            let wt = w[0] + w[1] + w[2];
-            if wt <= 0.0 {
-                continue;
-            }
-            norm += pix.solid_angle * wt;
-            self.for_samples(lo, size, pix.dir, pix.entry, w, per_face, |ray, e, inv| {
-                let mut rows = [0.0; 6];
-                match e {
-                    Some(e) => rows[pix.entry[e] as usize] = pix.solid_angle * w[e] * inv,
-                    None => {
-                        for e in 0..3 {
-                            rows[pix.entry[e] as usize] += pix.solid_angle * w[e] * inv;
-                        }
-                    }
+        for f in 0..6 {
+            let face = &map.pixels[f * n * n..(f + 1) * n * n];
+            steps += self.centre_pass(&v, face, collision, aa, supersampled, &mut pass);
+            for (k, pix) in face.iter().enumerate() {
+                let w = pass.weights[k];
+                let wt = w[0] + w[1] + w[2];
+                if wt <= 0.0 {
+                    continue;
                 }
-                let mut sink = RecordSink {
-                    rows,
-                    out: &mut raw,
+                norm += pix.solid_angle * wt;
+                // (direction, share of the pixel, footprint) of each ray direction.
+                let dirs: Vec<([f64; 3], f64, f64)> = if pass.flag[k] {
+                    let subs = sub_pixels(f, k % n, k / n, n, aa.subdivisions as usize);
+                    let wsum: f64 = subs.iter().map(|s| s.1).sum();
+                    let fp = v.footprint / aa.subdivisions as f64;
+                    subs.into_iter().map(|(d, ws)| (d, ws / wsum, fp)).collect()
+                } else {
+                    vec![(pix.dir, 1.0, v.footprint)]
                 };
-                steps += self.trace_into(ray, footprint, false, &mut sink);
-            });
+                for (d, share, fp) in dirs {
+                    self.for_samples(&v, d, pix.entry, w, |ray, e, inv| {
+                        // (A share of 1 leaves the products bitwise those of the
+                        // unsupersampled map.)
+                        let mut rows = [0.0; 6];
+                        match e {
+                            Some(e) => {
+                                rows[pix.entry[e] as usize] = pix.solid_angle * w[e] * inv * share;
+                            }
+                            None => {
+                                for e in 0..3 {
+                                    rows[pix.entry[e] as usize] +=
+                                        pix.solid_angle * w[e] * inv * share;
+                                }
+                            }
+                        }
+                        let mut sink = RecordSink {
+                            rows,
+                            out: &mut raw,
+                        };
+                        steps += self.trace_into(ray, fp, false, &mut sink);
+                    });
+                }
+            }
         }
         let scale = if norm > 0.0 {
-            let edge = size as f64 * self.scene.voxel;
-            cell.total_weight / norm * edge * edge
+            let edge = v.size as f64 * self.scene.voxel;
+            v.total_weight / norm * edge * edge
         } else {
             0.0
         };
@@ -800,117 +886,45 @@ impl Tracer<'_> {
         collision: Collision,
         aa: &AntiAlias,
     ) -> (FaceRgb, u64) {
-        let cell = &self.scene.cells[r.cell as usize];
-        let size = i64::from(cell.size);
-        let lo = cell.origin.map(i64::from);
-        let depth = cell.depth();
-        // Opaque receivers are surfaces: with more than one sample they gather on their
-        // faces.
-        let per_face = self.gathers_per_face(cell);
+        let v = self.receiver_view(r, map);
         let n = map.side;
-        let footprint = 2.0 / n as f64;
         let mut acc = [[0.0; 3]; 6];
         let mut norm = 0.0;
         let mut steps = 0;
-        // Per pixel: the three entry radiances and their weighted mean (for contrast).
-        let mut rad = vec![[[0.0; 3]; 3]; n * n];
-        let mut mean = vec![[0.0; 3]; n * n];
-        let mut weights = vec![[0.0; 3]; n * n];
-        let mut flag = vec![false; n * n];
+        let mut pass = FacePass::new(n);
         for f in 0..6 {
             let face = &map.pixels[f * n * n..(f + 1) * n * n];
-            for (k, pix) in face.iter().enumerate() {
-                let w = entry_weights(pix.abs, depth, collision);
-                weights[k] = w;
-                let wt = w[0] + w[1] + w[2];
-                if wt <= 0.0 {
-                    rad[k] = [[0.0; 3]; 3];
-                    mean[k] = [0.0; 3];
+            steps += self.centre_pass(&v, face, collision, aa, true, &mut pass);
+            let s = aa.subdivisions as usize;
+            for k in 0..n * n {
+                if !pass.flag[k] {
                     continue;
                 }
-                let (l, s) = self.radiances(lo, size, pix.dir, pix.entry, w, per_face, footprint);
-                steps += s;
-                rad[k] = l;
-                mean[k] =
-                    [0, 1, 2].map(|c| (w[0] * l[0][c] + w[1] * l[1][c] + w[2] * l[2][c]) / wt);
-            }
-            if aa.subdivisions > 1 {
-                flag.fill(false);
-                for j in 0..n {
-                    for i in 0..n {
-                        let k = i + n * j;
-                        // Right, up, and both diagonals: a silhouette corner inside a
-                        // pixel differs from its diagonal neighbour only.
-                        for (di, dj) in [(1isize, 0isize), (0, 1), (1, 1), (1, -1)] {
-                            let (ii, jj) = (i as isize + di, j as isize + dj);
-                            if ii < 0 || jj < 0 || ii >= n as isize || jj >= n as isize {
-                                continue;
-                            }
-                            let (ii, jj) = (ii as usize, jj as usize);
-                            let q = ii + n * jj;
-                            if aa.contrasts(&mean[k], &mean[q]) {
-                                flag[k] = true;
-                                flag[q] = true;
-                            }
+                // s² sub-samples in a correlated multi-jittered pattern, each
+                // weighted by the gnomonic Jacobian ([`sub_pixels`]); the pixel keeps
+                // its collision weights.
+                let mut sum = [[0.0; 3]; 3];
+                let mut wsum = 0.0;
+                for (d, w) in sub_pixels(f, k % n, k / n, n, s) {
+                    let (l, st) = self.radiances(
+                        &v,
+                        d,
+                        face[k].entry,
+                        pass.weights[k],
+                        v.footprint / s as f64,
+                    );
+                    steps += st;
+                    for e in 0..3 {
+                        for ch in 0..3 {
+                            sum[e][ch] += w * l[e][ch];
                         }
                     }
+                    wsum += w;
                 }
-                let s = aa.subdivisions as usize;
-                let axis = f / 2;
-                let sign = if f % 2 == 0 { 1.0 } else { -1.0 };
-                let (ta, tb) = ((axis + 1) % 3, (axis + 2) % 3);
-                let edge = |x: f64| -1.0 + 2.0 * x / n as f64;
-                for j in 0..n {
-                    for i in 0..n {
-                        let k = i + n * j;
-                        if !flag[k] {
-                            continue;
-                        }
-                        // s² sub-samples in a correlated multi-jittered pattern (all
-                        // s² abscissae and ordinates distinct, so an edge along either
-                        // axis is resolved to 1/s² of a pixel), each weighted by the
-                        // gnomonic Jacobian (1 + u² + v²)^(−3/2); the pixel keeps its
-                        // collision weights.
-                        let mut sum = [[0.0; 3]; 3];
-                        let mut wsum = 0.0;
-                        let s2 = (s * s) as f64;
-                        for b in 0..s {
-                            for a in 0..s {
-                                let fu = (a * s + b) as f64 + 0.5;
-                                let fv = (b * s + a) as f64 + 0.5;
-                                let u = edge(i as f64 + fu / s2);
-                                let v = edge(j as f64 + fv / s2);
-                                let r2 = 1.0 + u * u + v * v;
-                                let rr = r2.sqrt();
-                                let w = 1.0 / (r2 * rr);
-                                let mut d = [0.0; 3];
-                                d[axis] = sign / rr;
-                                d[ta] = u / rr;
-                                d[tb] = v / rr;
-                                let (l, st) = self.radiances(
-                                    lo,
-                                    size,
-                                    d,
-                                    face[k].entry,
-                                    weights[k],
-                                    per_face,
-                                    footprint / s as f64,
-                                );
-                                steps += st;
-                                for e in 0..3 {
-                                    for ch in 0..3 {
-                                        sum[e][ch] += w * l[e][ch];
-                                    }
-                                }
-                                wsum += w;
-                            }
-                        }
-                        rad[k] = sum.map(|e| e.map(|x| x / wsum));
-                    }
-                }
+                pass.rad[k] = sum.map(|e| e.map(|x| x / wsum));
             }
             for (k, pix) in face.iter().enumerate() {
-                let w = weights[k];
+                let w = pass.weights[k];
                 let wt = w[0] + w[1] + w[2];
                 if wt <= 0.0 {
                     continue;
@@ -920,22 +934,88 @@ impl Tracer<'_> {
                     let fi = pix.entry[e] as usize;
                     let sw = pix.solid_angle * w[e];
                     for ch in 0..3 {
-                        acc[fi][ch] += sw * rad[k][e][ch];
+                        acc[fi][ch] += sw * pass.rad[k][e][ch];
                     }
                 }
             }
         }
         if norm > 0.0 {
-            let edge = size as f64 * self.scene.voxel;
-            let scale = cell.total_weight / norm * edge * edge;
+            let edge = v.size as f64 * self.scene.voxel;
+            let scale = v.total_weight / norm * edge * edge;
             for f in &mut acc {
-                for v in f.iter_mut() {
-                    *v *= scale;
+                for x in f.iter_mut() {
+                    *x *= scale;
                 }
             }
         }
         (acc, steps)
     }
+}
+
+/// What a receiver's gather needs of its cell and framebuffer.
+struct ReceiverView {
+    lo: [i64; 3],
+    size: i64,
+    /// Optical depth across the cell.
+    depth: f64,
+    /// Whether it gathers on its faces ([`Tracer::gathers_per_face`]).
+    per_face: bool,
+    /// A pixel's angular width (rad).
+    footprint: f64,
+    /// `Ĝ` of the cell.
+    total_weight: f64,
+}
+
+/// Per pixel of one frustum (a map of side `side`): collision weights, entry radiances,
+/// their weighted mean (for the contrast test) and whether it is supersampled.
+struct FacePass {
+    side: usize,
+    weights: Vec<[f64; 3]>,
+    rad: Vec<[[f64; 3]; 3]>,
+    mean: Vec<[f64; 3]>,
+    flag: Vec<bool>,
+}
+
+impl FacePass {
+    fn new(side: usize) -> Self {
+        let m = side * side;
+        Self {
+            side,
+            weights: vec![[0.0; 3]; m],
+            rad: vec![[[0.0; 3]; 3]; m],
+            mean: vec![[0.0; 3]; m],
+            flag: vec![false; m],
+        }
+    }
+}
+
+/// The `s²` sub-pixel directions of pixel `(i, j)` of frustum `f` of a map of side `n`,
+/// with their gnomonic Jacobians `(1 + u² + v²)^(−3/2)` as weights, in a correlated
+/// multi-jittered pattern: all `s²` abscissae and ordinates distinct, so an edge along
+/// either axis is resolved to `1/s²` of a pixel.
+fn sub_pixels(f: usize, i: usize, j: usize, n: usize, s: usize) -> Vec<([f64; 3], f64)> {
+    let axis = f / 2;
+    let sign = if f.is_multiple_of(2) { 1.0 } else { -1.0 };
+    let (ta, tb) = ((axis + 1) % 3, (axis + 2) % 3);
+    let edge = |x: f64| -1.0 + 2.0 * x / n as f64;
+    let s2 = (s * s) as f64;
+    let mut out = Vec::with_capacity(s * s);
+    for b in 0..s {
+        for a in 0..s {
+            let fu = (a * s + b) as f64 + 0.5;
+            let fv = (b * s + a) as f64 + 0.5;
+            let u = edge(i as f64 + fu / s2);
+            let v = edge(j as f64 + fv / s2);
+            let r2 = 1.0 + u * u + v * v;
+            let rr = r2.sqrt();
+            let mut d = [0.0; 3];
+            d[axis] = sign / rr;
+            d[ta] = u / rr;
+            d[tb] = v / rr;
+            out.push((d, 1.0 / (r2 * rr)));
+        }
+    }
+    out
 }
 
 /// Adaptive supersampling of the framebuffer: a pixel whose radiance differs from one
@@ -976,6 +1056,28 @@ impl AntiAlias {
     }
 }
 
+/// The cube maps of a receiver list's framebuffer sides.
+struct Maps {
+    sides: Vec<u32>,
+    maps: Vec<std::sync::Arc<CubeMap>>,
+}
+
+impl Maps {
+    fn new(receivers: &[Receiver]) -> Self {
+        let mut sides: Vec<u32> = receivers.iter().map(|r| r.framebuffer).collect();
+        sides.sort_unstable();
+        sides.dedup();
+        let maps = sides.iter().map(|&s| CubeMap::shared(s as usize)).collect();
+        Self { sides, maps }
+    }
+
+    /// The map of side `s` (one of the receivers').
+    fn of(&self, s: u32) -> &CubeMap {
+        let i = self.sides.binary_search(&s).unwrap_or(0);
+        &self.maps[i]
+    }
+}
+
 impl Projector for CpuProjector {
     fn name(&self) -> String {
         match self.projection {
@@ -1001,21 +1103,14 @@ impl Projector for CpuProjector {
             pyramid: pyramid.as_ref(),
             samples: self.receiver_samples.max(1) as usize,
         };
-        let mut sides: Vec<u32> = receivers.iter().map(|r| r.framebuffer).collect();
-        sides.sort_unstable();
-        sides.dedup();
-        let maps: Vec<_> = sides.iter().map(|&s| CubeMap::shared(s as usize)).collect();
-        let map_of = |s: u32| -> &CubeMap {
-            let i = sides.binary_search(&s).unwrap_or(0);
-            &maps[i]
-        };
+        let maps = Maps::new(receivers);
         let steps: u64 = out
             .par_iter_mut()
             .zip(receivers.par_iter())
             .with_min_len(8)
             .map(|(o, r)| {
                 let (acc, s) =
-                    tracer.gather_one(r, map_of(r.framebuffer), collision, &self.antialias);
+                    tracer.gather_one(r, maps.of(r.framebuffer), collision, &self.antialias);
                 *o = acc;
                 s
             })
@@ -1031,41 +1126,33 @@ impl Projector for CpuProjector {
     }
 
     /// Records the gather's linear map ([`super::Transport`]) in [`Projection::Exact`]
-    /// without supersampling (with it, which pixels are supersampled depends on the
-    /// radiance, so the gather is not linear; the pyramid is rebuilt from the emission
-    /// at every call): `None` otherwise, or when the map outgrows `max_bytes`
-    /// (receivers are recorded in blocks of 256 and the size checked after each).
+    /// (the pyramid is rebuilt from the emission at every call: `None`), or `None` when
+    /// the map outgrows `max_bytes` (receivers are recorded in blocks of 256 and the
+    /// size checked after each). With supersampling, which pixels are supersampled
+    /// depends on the radiance, so the gather is linear only for a fixed choice: the
+    /// recorded map keeps the pixels that `emission` selects (the gather of `emission`
+    /// itself is reproduced up to the order of the sums), and its product with another
+    /// emission is the gather with those pixels supersampled, not the ones that
+    /// emission would select.
     fn record(
         &self,
         scene: &ProjectionScene<'_>,
+        emission: &Emission<'_>,
         collision: Collision,
         receivers: &[Receiver],
         max_bytes: usize,
     ) -> Result<Option<super::Transport>, VolumeError> {
-        let empty: Vec<FaceRgb> = vec![[[0.0; 3]; 6]; scene.cells.len()];
-        let power = vec![[0.0; 3]; scene.cells.len()];
-        let emission = Emission {
-            coefficients: &empty,
-            power: &power,
-        };
-        check_inputs(&self.name(), scene, &emission, receivers, receivers.len())?;
-        if self.projection != Projection::Exact || self.antialias.subdivisions > 1 {
+        check_inputs(&self.name(), scene, emission, receivers, receivers.len())?;
+        if self.projection != Projection::Exact {
             return Ok(None);
         }
         let tracer = Tracer {
             scene,
-            emission: &emission,
+            emission,
             pyramid: None,
             samples: self.receiver_samples.max(1) as usize,
         };
-        let mut sides: Vec<u32> = receivers.iter().map(|r| r.framebuffer).collect();
-        sides.sort_unstable();
-        sides.dedup();
-        let maps: Vec<_> = sides.iter().map(|&s| CubeMap::shared(s as usize)).collect();
-        let map_of = |s: u32| -> &CubeMap {
-            let i = sides.binary_search(&s).unwrap_or(0);
-            &maps[i]
-        };
+        let maps = Maps::new(receivers);
         let mut t = super::Transport {
             offsets: vec![0],
             ..super::Transport::default()
@@ -1073,7 +1160,7 @@ impl Projector for CpuProjector {
         for block in receivers.chunks(256) {
             let rows: Vec<(Entries, u64)> = block
                 .par_iter()
-                .map(|r| tracer.record_one(r, map_of(r.framebuffer), collision))
+                .map(|r| tracer.record_one(r, maps.of(r.framebuffer), collision, &self.antialias))
                 .collect();
             for (row, _) in rows {
                 for (c, f, w) in row {

@@ -130,7 +130,8 @@ impl std::ops::AddAssign for GatherStats {
 
 /// The recorded linear map of [`Projector::gather`] for one scene, collision mode and
 /// receiver list: the gather is linear in the emission coefficients (opacities are
-/// fixed while an active set is relaxed), so a backend may record, per receiver, the
+/// fixed while an active set is relaxed; adaptive choices such as supersampled pixels
+/// are fixed when the map is recorded), so a backend may record, per receiver, the
 /// weight with which every sender face's coefficient reaches each of its entry faces
 /// once, and every later gather is a sparse product ([`Transport::apply`]). Entries of
 /// one receiver are sorted by (sender face, entry face) and summed in that order, so
@@ -245,18 +246,22 @@ pub trait Projector: Sync {
 
     /// Records the linear map of [`Projector::gather`] for `receivers` ([`Transport`]),
     /// or `None` when the backend does not record (the default) or the map would take
-    /// more than `max_bytes`; the caller then keeps calling `gather`.
+    /// more than `max_bytes`; the caller then keeps calling `gather`. A backend whose
+    /// gather makes choices that depend on the radiance (the CPU projector's adaptive
+    /// supersampling) makes them for `emission` and records the map with those choices
+    /// fixed: applied to `emission` it gives the gather of `emission`.
     ///
     /// # Errors
     /// As [`Projector::gather`].
     fn record(
         &self,
         scene: &ProjectionScene<'_>,
+        emission: &Emission<'_>,
         collision: crate::cell::Collision,
         receivers: &[Receiver],
         max_bytes: usize,
     ) -> Result<Option<Transport>, VolumeError> {
-        let _ = (scene, collision, receivers, max_bytes);
+        let _ = (scene, emission, collision, receivers, max_bytes);
         Ok(None)
     }
 
