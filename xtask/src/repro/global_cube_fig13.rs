@@ -133,29 +133,9 @@ fn slice_with_hierarchy(
 pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     let mut r = Report::default();
     let (n, fb, width) = if ctx.quick { (16, 4, 96) } else { (32, 4, 192) };
-    let name = format!("gc-lounge-{n}");
-    let scene = wavelux::scene::builtin::builtin(&name)
-        .ok_or_else(|| anyhow::anyhow!("no built-in {name}"))?;
-    let grid = VolumeGrid::from_medium(&scene.media[0])?;
-    let cfg = GlobalCubeConfig {
-        levels: 2,
-        framebuffer: fb,
-        ..GlobalCubeConfig::default()
-    }
-    .with_threshold(33.0);
+    let (name, scene, grid, cfg) =
+        super::global_cube_table1::lounge(&mut r, n, fb, "RGB; images show red")?;
     let slice_z = n / 8;
-    r.param("scene", format!("builtin:{name} (RGB; images show red)"));
-    r.param("levels L", cfg.levels);
-    r.param("framebuffer cap", fb);
-    r.param(
-        "thresholds",
-        "33/255 of each range (source, opacity, face powers)",
-    );
-    r.param("oracle", "both (static first, then dynamic)");
-    r.param(
-        "relaxation",
-        "Jacobi, 1 per step; lowpass and final solves to 1e-4",
-    );
     r.param(
         "projector",
         "CPU, exact, one ray per pixel, one receiver sample (the paper's)",
