@@ -18,7 +18,7 @@
 //! point formula `L₂ = f_r G L_e A₁`; at the smallest error both runs reach we
 //! interpolate (log–log between rounds) the links and samples each needed.
 
-use super::glossy_fig13::{error_patch2, three_patches};
+use super::glossy_fig13::{PAPER_MAP, error_patch2, three_patches};
 use crate::cpu::Stopwatch;
 use crate::report::{Report, Row, Table, Tolerance};
 use crate::reproduce::Ctx;
@@ -72,6 +72,7 @@ fn run_one(
     let scene = three_patches();
     let cfg = GlossyConfig {
         variant: WardVariant::Original,
+        directions: PAPER_MAP,
         decomposition: d,
         rounds,
         importance: ImportanceSource::Off,
@@ -131,6 +132,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         ),
     );
     r.param("Ward variant", "original, α = 0.2, ρ_s = 0.5, ρ_d = 0");
+    r.param("direction map", PAPER_MAP.name());
     r.param(
         "patch 2 error grid",
         format!("{k} × {k} directions at the midpoint"),

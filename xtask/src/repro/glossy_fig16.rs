@@ -22,6 +22,7 @@
 //! and measure every image against the glossy path tracer's image of the same view.
 
 use super::glossy_3_5::Curve;
+use super::glossy_fig13::PAPER_MAP;
 use crate::cpu::Stopwatch;
 use crate::report::{Figure, Report, Row, Table, Tolerance};
 use crate::reproduce::Ctx;
@@ -497,6 +498,7 @@ fn image_opts() -> RadianceOptions {
 fn run_one(st: &Setup<'_>, importance: ImportanceSource) -> anyhow::Result<Run> {
     let cfg = GlossyConfig {
         variant: WardVariant::Original,
+        directions: PAPER_MAP,
         rounds: st.rounds,
         importance,
         transport: st.transport,
@@ -607,6 +609,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         ),
     );
     r.param("Ward variant", "original (the paper's)");
+    r.param("direction map", PAPER_MAP.name());
     r.paper_did = "Fig. 16: a maze of 152 patches (28 of them the bicubic Bézier patches of \
         the teapot without its bottom) lit by 24 spotlights and a window showing an \
         outdoor image, seen from an eye patch in the hallway; 12,603 visible pairs \
