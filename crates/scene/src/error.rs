@@ -215,7 +215,8 @@ pub enum WarningKind {
     CurveNotRecognised {
         /// Triangles of the part.
         triangles: usize,
-        /// The surface it nearly is: `disk`, `circular hole`, `cylinder`, `sphere`.
+        /// The surface it nearly is: `disk`, `circular hole`, `arcs`, `cylinder`, `cone`,
+        /// `sphere`.
         surface: String,
         /// The failing criterion, with the measured value and the tolerance.
         reason: String,

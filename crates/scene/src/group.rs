@@ -10,9 +10,10 @@
 //!    welded (split or rounded vertices at seams).
 //! 2. Smooth components (connected across manifold edges with creases below
 //!    [`crate::fit::max_arc`]) that tessellate a sphere (closed) or a cylinder patch
-//!    (open: a tube, a half-pipe, a curved wall) become that analytic surface
-//!    ([`crate::fit`]); near misses (a tapered cone, jittered vertices, a tube with a
-//!    window) stay facets with a [`WarningKind::CurveNotRecognised`].
+//!    or a cone patch (open: a tube, a half-pipe, a curved wall, a lampshade, a
+//!    funnel) become that analytic surface ([`crate::fit`]); near misses (jittered
+//!    vertices, a tube with a window) stay facets with a
+//!    [`WarningKind::CurveNotRecognised`].
 //! 3. Groups grow from the largest ungrouped triangle across *manifold* edges (exactly
 //!    two triangles, traversed in opposite directions, so the orientation agrees): a
 //!    neighbour joins when all three of its vertices lie within
@@ -32,8 +33,10 @@
 //!    a [`WarningKind::GroupingFallback`] says why. A wrong polygon is never produced.
 //! 7. Each loop that tessellates a circle becomes that circle, one full arc: a disk
 //!    (whose support is the exact concentric map), an annulus, a wall with round holes
-//!    (masked virtual supports with exact arc masks); near misses (an ellipse, jittered
-//!    vertices) keep their edges with a [`WarningKind::CurveNotRecognised`].
+//!    (masked virtual supports with exact arc masks); in any other loop, each run of
+//!    co-circular edges that the outline leaves at both ends becomes that arc (rounded
+//!    corners, a slot's ends: [`crate::fit::fit_arcs`]); near misses (an ellipse,
+//!    jittered vertices) keep their edges with a [`WarningKind::CurveNotRecognised`].
 //!
 //! Groups of fewer than [`MIN_GROUP_TRIANGLES`] triangles stay in the mesh (a pair is
 //! an exact parallelogram, merged as before, or a general quad, which in a curved
@@ -46,7 +49,10 @@ use glam::{DVec2, DVec3};
 
 use crate::analytic::{AnalyticPatch, AnalyticSurface, Placement};
 use crate::error::{SceneError, WarningKind};
-use crate::fit::{CylinderFit, SphereFit, fit_circle, fit_cylinder, fit_sphere, max_arc};
+use crate::fit::{
+    ConeFit, CylinderFit, SphereFit, fit_arcs, fit_circle, fit_cone, fit_cylinder, fit_sphere,
+    max_arc,
+};
 use crate::material::{Material, Rgb};
 use crate::scene::{MaterialId, Scene, Sidedness};
 use crate::shape::{Loop, LoopEdge, MERGE_REL, PlaneFrame, PolygonShape, Shape, TriangleMesh};
@@ -196,46 +202,7 @@ pub fn group_mesh(mesh: &TriangleMesh, file: &str, element: &str) -> Result<Grou
         })
         .collect();
     let edges = EdgeMap::new(&tris);
-    // Smooth components that tessellate a sphere (closed) or a cylinder patch (open)
-    // become that surface (crate::fit).
-    let mut taken = vec![false; tris.len()];
-    let mut spheres = Vec::new();
-    let mut cylinders = Vec::new();
-    let mut warnings = Vec::new();
-    for (comp, closed) in smooth_components(&tris, &edges) {
-        let welded: Vec<[u32; 3]> = comp.iter().map(|&t| tris[t].v).collect();
-        let fitted = if closed {
-            match fit_sphere(p, &welded) {
-                Some(fit) => {
-                    spheres.push((comp.len(), fit));
-                    true
-                }
-                None => false,
-            }
-        } else {
-            match fit_cylinder(p, &welded) {
-                Ok(fit) => {
-                    cylinders.push((comp.len(), fit));
-                    true
-                }
-                Err(miss) => {
-                    if let Some(reason) = miss {
-                        warnings.push(WarningKind::CurveNotRecognised {
-                            triangles: comp.len(),
-                            surface: "cylinder".into(),
-                            reason,
-                        });
-                    }
-                    false
-                }
-            }
-        };
-        if fitted {
-            for &t in &comp {
-                taken[t] = true;
-            }
-        }
-    }
+    let (fitted, taken, mut warnings) = fit_smooth(p, &tris, &edges);
     let groups = grow_groups(p, &tris, &edges, &taken, tol);
     let mut parts = Vec::new();
     let mut rest: Vec<[u32; 3]> = Vec::new();
@@ -281,7 +248,7 @@ pub fn group_mesh(mesh: &TriangleMesh, file: &str, element: &str) -> Result<Grou
             area: welded_area,
         });
     }
-    let single = spheres.len() + cylinders.len() + parts.len() + usize::from(!rest.is_empty()) == 1;
+    let single = fitted.len() + parts.len() + usize::from(!rest.is_empty()) == 1;
     let name = |kind: &str, k: usize| {
         if single {
             String::new()
@@ -290,21 +257,17 @@ pub fn group_mesh(mesh: &TriangleMesh, file: &str, element: &str) -> Result<Grou
         }
     };
     let mut out: Vec<MeshPart> = Vec::new();
-    for (k, (count, fit)) in spheres.into_iter().enumerate() {
+    let mut counts = [0usize; 3];
+    for (count, fit) in fitted {
         grouped_triangles += count;
+        let (kind, shape, reversed) = fit.part();
+        let k = &mut counts[fit.order()];
         out.push(MeshPart {
-            suffix: name("sphere", k),
-            shape: sphere_shape(fit),
-            reversed: fit.inward,
+            suffix: name(kind, *k),
+            shape,
+            reversed,
         });
-    }
-    for (k, (count, fit)) in cylinders.into_iter().enumerate() {
-        grouped_triangles += count;
-        out.push(MeshPart {
-            suffix: name("cylinder", k),
-            shape: cylinder_shape(fit),
-            reversed: fit.inward,
-        });
+        *k += 1;
     }
     out.extend(parts.into_iter().enumerate().map(|(k, shape)| MeshPart {
         suffix: name("face", k),
@@ -478,6 +441,86 @@ fn grow_groups(
     groups
 }
 
+/// A smooth component recognised as an analytic surface ([`crate::fit`]).
+enum Fitted {
+    Sphere(SphereFit),
+    Cylinder(CylinderFit),
+    Cone(ConeFit),
+}
+
+impl Fitted {
+    /// Output order of the kind (spheres, cylinders, cones) and its index in the
+    /// per-kind part counters.
+    fn order(&self) -> usize {
+        match self {
+            Self::Sphere(_) => 0,
+            Self::Cylinder(_) => 1,
+            Self::Cone(_) => 2,
+        }
+    }
+
+    /// Name of the kind in part suffixes, the analytic patch (front side outwards) and
+    /// whether the mesh's front side is its inside ([`MeshPart::reversed`]).
+    fn part(&self) -> (&'static str, Shape, bool) {
+        match *self {
+            Self::Sphere(f) => ("sphere", sphere_shape(f), f.inward),
+            Self::Cylinder(f) => ("cylinder", cylinder_shape(f), f.inward),
+            Self::Cone(f) => ("cone", cone_shape(f), f.inward),
+        }
+    }
+}
+
+/// The smooth components (see [`smooth_components`]) that tessellate a sphere (closed)
+/// or a cylinder or cone patch (open), each with its triangle count, in the order
+/// spheres, cylinders, cones (each in component order); which triangles they take; and
+/// the near misses' warnings. A cone is tried where the cylinder is not recognised; a
+/// near miss names the cone when the cone fit was a candidate, else the cylinder.
+fn fit_smooth(
+    p: &[DVec3],
+    tris: &[Tri],
+    edges: &EdgeMap,
+) -> (Vec<(usize, Fitted)>, Vec<bool>, Vec<WarningKind>) {
+    let mut taken = vec![false; tris.len()];
+    let mut fitted = Vec::new();
+    let mut warnings = Vec::new();
+    for (comp, closed) in smooth_components(tris, edges) {
+        let welded: Vec<[u32; 3]> = comp.iter().map(|&t| tris[t].v).collect();
+        let fit = if closed {
+            fit_sphere(p, &welded).map(Fitted::Sphere)
+        } else {
+            match fit_cylinder(p, &welded) {
+                Ok(fit) => Some(Fitted::Cylinder(fit)),
+                Err(cylinder) => match fit_cone(p, &welded) {
+                    Ok(fit) => Some(Fitted::Cone(fit)),
+                    Err(cone) => {
+                        let miss = match (cone, cylinder) {
+                            (Some(reason), _) => Some(("cone", reason)),
+                            (None, Some(reason)) => Some(("cylinder", reason)),
+                            (None, None) => None,
+                        };
+                        if let Some((surface, reason)) = miss {
+                            warnings.push(WarningKind::CurveNotRecognised {
+                                triangles: comp.len(),
+                                surface: surface.into(),
+                                reason,
+                            });
+                        }
+                        None
+                    }
+                },
+            }
+        };
+        if let Some(fit) = fit {
+            for &t in &comp {
+                taken[t] = true;
+            }
+            fitted.push((comp.len(), fit));
+        }
+    }
+    fitted.sort_by_key(|f| f.1.order());
+    (fitted, taken, warnings)
+}
+
 /// The smooth components of the welded triangles: maximal sets connected across
 /// manifold, consistently oriented edges whose two facets' normals differ by at most
 /// [`max_arc`] (a crease sharper than one facet of a recognisable curve separates
@@ -530,6 +573,26 @@ fn cylinder_shape(fit: CylinderFit) -> Shape {
             radius: fit.radius,
             azimuth: fit.azimuth,
             height: fit.height,
+        },
+        trim: None,
+    })
+}
+
+/// The cone patch of a fit, front side away from the axis (see [`MeshPart::reversed`]):
+/// the apex at the placement's origin, `φ = 1` at the patch's far rim.
+fn cone_shape(fit: ConeFit) -> Shape {
+    let (h0, h1) = fit.height;
+    Shape::Patch(AnalyticPatch {
+        surface: AnalyticSurface::Cone {
+            placement: Placement {
+                origin: fit.apex,
+                axis: fit.axis,
+                reference: fit.reference,
+            },
+            radius: fit.slope * h1,
+            height: h1,
+            azimuth: fit.azimuth,
+            generator: (h0 / h1, 1.0),
         },
         trim: None,
     })
@@ -860,9 +923,11 @@ fn polygon_of(
 }
 
 /// The polygon with every loop that tessellates a circle replaced by that circle (one
-/// full arc, same orientation), and the loops that nearly do with why not. A circle
-/// that would make the region improper (a round hole bulging into another loop by
-/// its sagitta) keeps its polygon, and says so.
+/// full arc, same orientation), and the loops that nearly do with why not. In a loop
+/// that is no circle, every run of at least [`crate::fit::MIN_ARC_EDGES`] edges on one
+/// circle ([`fit_arcs`]: rounded corners, a slot's round ends, an arched window)
+/// becomes that arc. A circle or arcs that would make the region improper (a round hole
+/// bulging into another loop by its sagitta) keep the polygon's edges, and say so.
 fn circles(
     poly: PolygonShape,
     outer: &[DVec2],
@@ -873,34 +938,78 @@ fn circles(
     let loops =
         std::iter::once((outer, "disk")).chain(holes.iter().map(|h| (&h[..], "circular hole")));
     for (k, (pts, what)) in loops.enumerate() {
-        match fit_circle(pts) {
-            Ok(fit) => {
-                let circle = Loop {
+        // The circle, else the arcs (whose success silences the circle's near miss).
+        let (curved, what, miss) = match fit_circle(pts) {
+            Ok(fit) => (
+                Some(Loop {
                     edges: vec![LoopEdge::Arc {
                         start: fit.centre + DVec2::new(fit.radius, 0.0),
                         center: fit.centre,
                         ccw: k == 0,
                     }],
-                };
+                }),
+                what,
+                None,
+            ),
+            Err(miss) => match with_arcs(pts) {
+                Some(arcs) => (Some(arcs), "arcs", None),
+                None => (None, what, miss),
+            },
+        };
+        match curved {
+            Some(curved) => {
                 let mut next = out.clone();
                 if k == 0 {
-                    next.outer = circle;
+                    next.outer = curved;
                 } else {
-                    next.holes[k - 1] = circle;
+                    next.holes[k - 1] = curved;
                 }
                 match check_region(&next) {
                     Ok(()) => out = next,
                     Err(e) => misses.push((
                         what,
-                        format!("the circle would not bound a proper region: {e}"),
+                        format!("the curve would not bound a proper region: {e}"),
                     )),
                 }
             }
-            Err(Some(reason)) => misses.push((what, reason)),
-            Err(None) => {}
+            None => {
+                if let Some(reason) = miss {
+                    misses.push((what, reason));
+                }
+            }
         }
     }
     (out, misses)
+}
+
+/// The loop `pts` with its runs of co-circular edges ([`fit_arcs`]) made arcs, or
+/// `None` when it has none.
+fn with_arcs(pts: &[DVec2]) -> Option<Loop> {
+    let runs = fit_arcs(pts);
+    let n = pts.len();
+    let first = runs.first()?.first;
+    let mut edges = Vec::with_capacity(n);
+    let mut next = runs.iter().peekable();
+    let mut k = 0;
+    while k < n {
+        let v = (first + k) % n;
+        match next.peek() {
+            Some(run) if run.first == v => {
+                edges.push(LoopEdge::Arc {
+                    start: pts[v],
+                    center: run.centre,
+                    ccw: run.ccw,
+                });
+                k += run.edges;
+                next.next();
+            }
+            _ => {
+                edges.push(LoopEdge::Segment { start: pts[v] });
+                k += 1;
+            }
+        }
+    }
+    Some(Loop { edges })
 }
 
 /// Checks that a polygon's loops bound a proper region, as a reason string.

@@ -1217,240 +1217,318 @@ enum Piece {
     King,
 }
 
+/// Adds the surfaces of one chess piece: `p.add(name, shape, two_sided)` names them
+/// `{tag}-{name}`; the placement helpers are relative to the piece's base centre `c`.
+struct PieceAt<'a> {
+    s: &'a mut Scene,
+    tag: &'a str,
+    c: DVec3,
+    mat: MaterialId,
+}
+
+impl PieceAt<'_> {
+    fn add(&mut self, name: &str, shape: Shape, two_sided: bool) {
+        let sides = if two_sided {
+            Sidedness::TwoSided { back: self.mat }
+        } else {
+            Sidedness::OneSided
+        };
+        push(
+            self.s,
+            format!("{}-{name}", self.tag),
+            shape,
+            self.mat,
+            sides,
+        );
+    }
+
+    /// A horizontal frame at height `z`, facing up.
+    fn up(&self, z: f64) -> PlaneFrame {
+        frame_facing(self.c + DVec3::Z * z, DVec3::Z, DVec3::X)
+    }
+
+    /// A horizontal frame at height `z`, facing down.
+    fn down(&self, z: f64) -> PlaneFrame {
+        frame_facing(self.c + DVec3::Z * z, -DVec3::Z, DVec3::X)
+    }
+
+    /// The sphere of radius `r` centred at height `zc`, from latitude `lat0` up.
+    fn sph(&self, zc: f64, r: f64, lat0: f64) -> AnalyticSurface {
+        AnalyticSurface::Sphere {
+            placement: placement(self.c + DVec3::Z * zc, DVec3::Z, DVec3::X),
+            radius: r,
+            azimuth: (0.0, TAU),
+            latitude: (lat0, FRAC_PI_2),
+        }
+    }
+
+    /// The spheroid of semi-axes `a` (equatorial) and `b` (polar) centred at height
+    /// `zc`, from latitude `lat0` up.
+    fn sphd(&self, zc: f64, a: f64, b: f64, lat0: f64) -> AnalyticSurface {
+        AnalyticSurface::Spheroid {
+            placement: placement(self.c + DVec3::Z * zc, DVec3::Z, DVec3::X),
+            equatorial: a,
+            polar: b,
+            azimuth: (0.0, TAU),
+            latitude: (lat0, FRAC_PI_2),
+        }
+    }
+
+    /// A full torus collar at height `z`.
+    fn collar(&self, z: f64, big: f64, small: f64) -> AnalyticSurface {
+        AnalyticSurface::Torus {
+            placement: placement(self.c + DVec3::Z * z, DVec3::Z, DVec3::X),
+            major: big,
+            minor: small,
+            azimuth: (0.0, TAU),
+            tube: (0.0, TAU),
+        }
+    }
+}
+
 /// Adds one piece standing at `c` (its base centre on the board).
 fn add_piece(s: &mut Scene, tag: &str, c: DVec3, piece: Piece, mat: MaterialId) {
-    let one = Sidedness::OneSided;
-    let two = Sidedness::TwoSided { back: mat };
-    let mut add = |name: &str, shape: Shape, sides: Sidedness| {
-        push(s, format!("{tag}-{name}"), shape, mat, sides);
-    };
-    let up = |z: f64| frame_facing(c + DVec3::Z * z, DVec3::Z, DVec3::X);
-    let down = |z: f64| frame_facing(c + DVec3::Z * z, -DVec3::Z, DVec3::X);
-    let sph = |zc: f64, r: f64, lat0: f64| AnalyticSurface::Sphere {
-        placement: placement(c + DVec3::Z * zc, DVec3::Z, DVec3::X),
-        radius: r,
-        azimuth: (0.0, TAU),
-        latitude: (lat0, FRAC_PI_2),
-    };
-    let sphd = |zc: f64, a: f64, b: f64, lat0: f64| AnalyticSurface::Spheroid {
-        placement: placement(c + DVec3::Z * zc, DVec3::Z, DVec3::X),
-        equatorial: a,
-        polar: b,
-        azimuth: (0.0, TAU),
-        latitude: (lat0, FRAC_PI_2),
-    };
-    let collar = |z: f64, big: f64, small: f64| AnalyticSurface::Torus {
-        placement: placement(c + DVec3::Z * z, DVec3::Z, DVec3::X),
-        major: big,
-        minor: small,
-        azimuth: (0.0, TAU),
-        tube: (0.0, TAU),
-    };
+    let mut p = PieceAt { s, tag, c, mat };
     // Common base: cylinder r 0.022, 6 mm high, and its top ring.
-    add("base", patch(band(c, 0.0, 0.022, 0.006, 0.022), None), one);
-    let stem0 = 0.016;
-    add("base-top", annulus(up(0.006), stem0, 0.022), one);
+    p.add(
+        "base",
+        patch(band(c, 0.0, 0.022, 0.006, 0.022), None),
+        false,
+    );
+    let top = p.up(0.006);
+    p.add("base-top", annulus(top, STEM0, 0.022), false);
     match piece {
-        Piece::Pawn => {
-            add(
-                "stem",
-                patch(band(c, 0.006, stem0, 0.032, 0.008), None),
-                one,
-            );
-            add("collar", patch(collar(0.032, 0.009, 0.003), None), one);
-            add("head", patch(sph(0.043, 0.011, -FRAC_PI_2), None), one);
+        Piece::Pawn => pawn(&mut p),
+        Piece::Rook => rook(&mut p),
+        Piece::Knight => knight(&mut p),
+        Piece::Bishop => bishop(&mut p),
+        Piece::Queen | Piece::King => royal(&mut p, piece == Piece::Queen),
+    }
+}
+
+/// Radius of a piece's stem where it leaves the base.
+const STEM0: f64 = 0.016;
+
+/// The pawn: stem cone, torus collar, sphere head.
+fn pawn(p: &mut PieceAt<'_>) {
+    let c = p.c;
+    p.add(
+        "stem",
+        patch(band(c, 0.006, STEM0, 0.032, 0.008), None),
+        false,
+    );
+    p.add("collar", patch(p.collar(0.032, 0.009, 0.003), None), false);
+    p.add("head", patch(p.sph(0.043, 0.011, -FRAC_PI_2), None), false);
+}
+
+/// The rook: stem, under-ring, crenellated tower cylinder and its floor.
+fn rook(p: &mut PieceAt<'_>) {
+    let c = p.c;
+    p.add(
+        "stem",
+        patch(band(c, 0.006, STEM0, 0.040, 0.012), None),
+        false,
+    );
+    p.add("under-ring", annulus(p.down(0.040), 0.012, 0.014), false);
+    // Tower: cylinder r 0.014, z 0.040–0.058, crenellated: 4 notches of width
+    // 1/8 dipping to v = 0.6 cut into the top edge of the trim square.
+    let mut pts = vec![DVec2::ZERO, DVec2::new(1.0, 0.0), DVec2::ONE];
+    for k in (0..4).rev() {
+        let u0 = k as f64 / 4.0;
+        pts.extend([
+            DVec2::new(u0 + 0.1875, 1.0),
+            DVec2::new(u0 + 0.1875, 0.6),
+            DVec2::new(u0 + 0.0625, 0.6),
+            DVec2::new(u0 + 0.0625, 1.0),
+        ]);
+    }
+    pts.push(DVec2::new(0.0, 1.0));
+    p.add(
+        "tower",
+        patch(
+            band(c, 0.040, 0.014, 0.058, 0.014),
+            Some(Region {
+                outer: Loop::polygon(&pts),
+                holes: Vec::new(),
+            }),
+        ),
+        true,
+    );
+    p.add("tower-floor", disk(p.up(0.050), 0.014), false);
+}
+
+/// The knight: stem and a trimmed spheroid head.
+fn knight(p: &mut PieceAt<'_>) {
+    let c = p.c;
+    p.add(
+        "stem",
+        patch(band(c, 0.006, STEM0, 0.030, 0.010), None),
+        false,
+    );
+    // Head: spheroid (semi-axes 0.013, 0.018) from the stem circle up, trimmed
+    // by a profile with a V notch between the ears, a curved muzzle cut and a
+    // round eye hole.
+    let lat0 = -(0.010f64 / 0.013).acos();
+    let outer = Loop {
+        edges: vec![
+            LoopEdge::Segment { start: DVec2::ZERO },
+            LoopEdge::Segment {
+                start: DVec2::new(1.0, 0.0),
+            },
+            LoopEdge::Segment {
+                start: DVec2::new(1.0, 0.55),
+            },
+            LoopEdge::Arc {
+                start: DVec2::new(0.85, 0.7),
+                center: DVec2::new(1.0, 0.7),
+                ccw: false,
+            },
+            LoopEdge::Segment {
+                start: DVec2::new(1.0, 0.85),
+            },
+            LoopEdge::Segment {
+                start: DVec2::new(1.0, 1.0),
+            },
+            LoopEdge::Segment {
+                start: DVec2::new(0.6, 1.0),
+            },
+            LoopEdge::Segment {
+                start: DVec2::new(0.5, 0.78),
+            },
+            LoopEdge::Segment {
+                start: DVec2::new(0.4, 1.0),
+            },
+            LoopEdge::Segment {
+                start: DVec2::new(0.0, 1.0),
+            },
+        ],
+    };
+    p.add(
+        "head",
+        patch(
+            p.sphd(0.045, 0.013, 0.018, lat0),
+            Some(Region {
+                outer,
+                holes: vec![Loop::circle(DVec2::new(0.3, 0.6), 0.05)],
+            }),
+        ),
+        true,
+    );
+}
+
+/// The bishop: stem, collar, slotted spheroid mitre, finial.
+fn bishop(p: &mut PieceAt<'_>) {
+    let c = p.c;
+    p.add(
+        "stem",
+        patch(band(c, 0.006, STEM0, 0.036, 0.007), None),
+        false,
+    );
+    p.add("collar", patch(p.collar(0.036, 0.008, 0.0025), None), false);
+    let lat0 = -(0.007f64 / 0.010).acos();
+    p.add(
+        "mitre",
+        patch(
+            p.sphd(0.050, 0.010, 0.014, lat0),
+            Some(Region {
+                outer: rect(DVec2::ZERO, DVec2::ONE),
+                holes: vec![Loop::polygon(&[
+                    DVec2::new(0.10, 0.45),
+                    DVec2::new(0.18, 0.45),
+                    DVec2::new(0.33, 0.9),
+                    DVec2::new(0.25, 0.9),
+                ])],
+            }),
+        ),
+        true,
+    );
+    p.add(
+        "finial",
+        patch(p.sph(0.067, 0.003, -FRAC_PI_2), None),
+        false,
+    );
+}
+
+/// The queen (`queen`) or the king: stem, collar and crown.
+fn royal(p: &mut PieceAt<'_>, queen: bool) {
+    let c = p.c;
+    let z_collar = if queen { 0.044 } else { 0.048 };
+    p.add(
+        "stem",
+        patch(band(c, 0.006, 0.017, z_collar, 0.008), None),
+        false,
+    );
+    p.add(
+        "collar",
+        patch(p.collar(z_collar, 0.010, 0.003), None),
+        false,
+    );
+    let (z0, z1) = (z_collar + 0.003, z_collar + 0.017);
+    if queen {
+        // Crown: widening cone whose top edge is bitten by 8 semicircles.
+        let mut edges = vec![
+            LoopEdge::Segment { start: DVec2::ZERO },
+            LoopEdge::Segment {
+                start: DVec2::new(1.0, 0.0),
+            },
+        ];
+        for k in (0..8).rev() {
+            let u1 = (k + 1) as f64 / 8.0;
+            edges.push(LoopEdge::Arc {
+                start: DVec2::new(u1, 1.0),
+                center: DVec2::new(u1 - 1.0 / 16.0, 1.0),
+                ccw: false,
+            });
         }
-        Piece::Rook => {
-            add(
-                "stem",
-                patch(band(c, 0.006, stem0, 0.040, 0.012), None),
-                one,
-            );
-            add("under-ring", annulus(down(0.040), 0.012, 0.014), one);
-            // Tower: cylinder r 0.014, z 0.040–0.058, crenellated: 4 notches of width
-            // 1/8 dipping to v = 0.6 cut into the top edge of the trim square.
-            let mut pts = vec![DVec2::ZERO, DVec2::new(1.0, 0.0), DVec2::ONE];
-            for k in (0..4).rev() {
-                let u0 = k as f64 / 4.0;
-                pts.extend([
-                    DVec2::new(u0 + 0.1875, 1.0),
-                    DVec2::new(u0 + 0.1875, 0.6),
-                    DVec2::new(u0 + 0.0625, 0.6),
-                    DVec2::new(u0 + 0.0625, 1.0),
-                ]);
-            }
-            pts.push(DVec2::new(0.0, 1.0));
-            add(
-                "tower",
-                patch(
-                    band(c, 0.040, 0.014, 0.058, 0.014),
-                    Some(Region {
-                        outer: Loop::polygon(&pts),
-                        holes: Vec::new(),
-                    }),
-                ),
-                two,
-            );
-            add("tower-floor", disk(up(0.050), 0.014), one);
-        }
-        Piece::Knight => {
-            add(
-                "stem",
-                patch(band(c, 0.006, stem0, 0.030, 0.010), None),
-                one,
-            );
-            // Head: spheroid (semi-axes 0.013, 0.018) from the stem circle up, trimmed
-            // by a profile with a V notch between the ears, a curved muzzle cut and a
-            // round eye hole.
-            let lat0 = -(0.010f64 / 0.013).acos();
-            let outer = Loop {
-                edges: vec![
-                    LoopEdge::Segment { start: DVec2::ZERO },
-                    LoopEdge::Segment {
-                        start: DVec2::new(1.0, 0.0),
-                    },
-                    LoopEdge::Segment {
-                        start: DVec2::new(1.0, 0.55),
-                    },
-                    LoopEdge::Arc {
-                        start: DVec2::new(0.85, 0.7),
-                        center: DVec2::new(1.0, 0.7),
-                        ccw: false,
-                    },
-                    LoopEdge::Segment {
-                        start: DVec2::new(1.0, 0.85),
-                    },
-                    LoopEdge::Segment {
-                        start: DVec2::new(1.0, 1.0),
-                    },
-                    LoopEdge::Segment {
-                        start: DVec2::new(0.6, 1.0),
-                    },
-                    LoopEdge::Segment {
-                        start: DVec2::new(0.5, 0.78),
-                    },
-                    LoopEdge::Segment {
-                        start: DVec2::new(0.4, 1.0),
-                    },
-                    LoopEdge::Segment {
-                        start: DVec2::new(0.0, 1.0),
-                    },
-                ],
-            };
-            add(
-                "head",
-                patch(
-                    sphd(0.045, 0.013, 0.018, lat0),
-                    Some(Region {
-                        outer,
-                        holes: vec![Loop::circle(DVec2::new(0.3, 0.6), 0.05)],
-                    }),
-                ),
-                two,
-            );
-        }
-        Piece::Bishop => {
-            add(
-                "stem",
-                patch(band(c, 0.006, stem0, 0.036, 0.007), None),
-                one,
-            );
-            add("collar", patch(collar(0.036, 0.008, 0.0025), None), one);
-            let lat0 = -(0.007f64 / 0.010).acos();
-            add(
-                "mitre",
-                patch(
-                    sphd(0.050, 0.010, 0.014, lat0),
-                    Some(Region {
-                        outer: rect(DVec2::ZERO, DVec2::ONE),
-                        holes: vec![Loop::polygon(&[
-                            DVec2::new(0.10, 0.45),
-                            DVec2::new(0.18, 0.45),
-                            DVec2::new(0.33, 0.9),
-                            DVec2::new(0.25, 0.9),
-                        ])],
-                    }),
-                ),
-                two,
-            );
-            add("finial", patch(sph(0.067, 0.003, -FRAC_PI_2), None), one);
-        }
-        Piece::Queen | Piece::King => {
-            let z_collar = if piece == Piece::Queen { 0.044 } else { 0.048 };
-            add(
-                "stem",
-                patch(band(c, 0.006, 0.017, z_collar, 0.008), None),
-                one,
-            );
-            add("collar", patch(collar(z_collar, 0.010, 0.003), None), one);
-            let (z0, z1) = (z_collar + 0.003, z_collar + 0.017);
-            if piece == Piece::Queen {
-                // Crown: widening cone whose top edge is bitten by 8 semicircles.
-                let mut edges = vec![
-                    LoopEdge::Segment { start: DVec2::ZERO },
-                    LoopEdge::Segment {
-                        start: DVec2::new(1.0, 0.0),
-                    },
-                ];
-                for k in (0..8).rev() {
-                    let u1 = (k + 1) as f64 / 8.0;
-                    edges.push(LoopEdge::Arc {
-                        start: DVec2::new(u1, 1.0),
-                        center: DVec2::new(u1 - 1.0 / 16.0, 1.0),
-                        ccw: false,
-                    });
-                }
-                edges.push(LoopEdge::Segment {
-                    start: DVec2::new(0.0, 1.0),
-                });
-                add(
-                    "crown",
-                    patch(
-                        band(c, z0, 0.009, z1, 0.013),
-                        Some(Region {
-                            outer: Loop { edges },
-                            holes: Vec::new(),
-                        }),
-                    ),
-                    two,
-                );
-                add("crown-floor", disk(up(z0 + 0.008), 0.0105), one);
-                add("orb", patch(sph(z1, 0.005, -FRAC_PI_2), None), one);
-            } else {
-                add("crown", patch(band(c, z0, 0.009, z1, 0.012), None), one);
-                add("crown-top", disk(up(z1), 0.012), one);
-                // Cross in the plane y = const, two-sided.
-                let (a, b) = (0.002, 0.006);
-                let cross = [
-                    (-a, 0.0),
-                    (a, 0.0),
-                    (a, 0.012),
-                    (b, 0.012),
-                    (b, 0.016),
-                    (a, 0.016),
-                    (a, 0.022),
-                    (-a, 0.022),
-                    (-a, 0.016),
-                    (-b, 0.016),
-                    (-b, 0.012),
-                    (-a, 0.012),
-                ]
-                .map(|(x, y)| DVec2::new(x, y));
-                add(
-                    "cross",
-                    Shape::Polygon(PolygonShape {
-                        frame: PlaneFrame {
-                            origin: c + DVec3::Z * z1,
-                            u: DVec3::X,
-                            v: DVec3::Z,
-                        },
-                        outer: Loop::polygon(&cross),
-                        holes: Vec::new(),
-                    }),
-                    two,
-                );
-            }
-        }
+        edges.push(LoopEdge::Segment {
+            start: DVec2::new(0.0, 1.0),
+        });
+        p.add(
+            "crown",
+            patch(
+                band(c, z0, 0.009, z1, 0.013),
+                Some(Region {
+                    outer: Loop { edges },
+                    holes: Vec::new(),
+                }),
+            ),
+            true,
+        );
+        p.add("crown-floor", disk(p.up(z0 + 0.008), 0.0105), false);
+        p.add("orb", patch(p.sph(z1, 0.005, -FRAC_PI_2), None), false);
+    } else {
+        p.add("crown", patch(band(c, z0, 0.009, z1, 0.012), None), false);
+        p.add("crown-top", disk(p.up(z1), 0.012), false);
+        // Cross in the plane y = const, two-sided.
+        let (a, b) = (0.002, 0.006);
+        let cross = [
+            (-a, 0.0),
+            (a, 0.0),
+            (a, 0.012),
+            (b, 0.012),
+            (b, 0.016),
+            (a, 0.016),
+            (a, 0.022),
+            (-a, 0.022),
+            (-a, 0.016),
+            (-b, 0.016),
+            (-b, 0.012),
+            (-a, 0.012),
+        ]
+        .map(|(x, y)| DVec2::new(x, y));
+        p.add(
+            "cross",
+            Shape::Polygon(PolygonShape {
+                frame: PlaneFrame {
+                    origin: c + DVec3::Z * z1,
+                    u: DVec3::X,
+                    v: DVec3::Z,
+                },
+                outer: Loop::polygon(&cross),
+                holes: Vec::new(),
+            }),
+            true,
+        );
     }
 }
 

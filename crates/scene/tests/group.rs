@@ -876,9 +876,10 @@ fn a_capped_tube_from_a_glb_is_a_cylinder_and_two_disks() {
 
 #[test]
 fn near_circles_stay_polygons_and_say_why() {
-    // An ellipse (semi-axes 1 and 0.9), a jittered circle (radii ± 1e-3) and a cone
-    // frustum (radii 1 → 0.9): kept as they are, each with a warning naming the
-    // surface it nearly is; coarse polygons and prisms (meant as such) stay silently.
+    // An ellipse (semi-axes 1 and 0.9), a jittered circle (radii ± 1e-3) and a
+    // jittered tube: kept as they are, each with a warning naming the surface it
+    // nearly is (a slightly tapered tube is a cone: see the cone tests); coarse
+    // polygons and prisms (meant as such) stay silently.
     let ellipse: Vec<DVec3> = annulus(0.0, 1.0, 64, 2)
         .0
         .into_iter()
@@ -906,10 +907,6 @@ fn near_circles_stay_polygons_and_say_why() {
             w[0].1
         );
     }
-    let cone = rings(5, 64, TAU, |k, _, _| {
-        let f = f64::from(k) / 4.0;
-        (1.0 - 0.1 * f, 2.0 * f)
-    });
     let jittered_tube = rings(5, 64, TAU, |k, j, _| {
         (
             1.0 + 1e-3 * (7.3 * f64::from(j + 3 * k)).sin(),
@@ -917,7 +914,8 @@ fn near_circles_stay_polygons_and_say_why() {
         )
     });
     let t = grid_tris(5, 64, true, false);
-    for (what, p) in [("cone", cone), ("jittered tube", jittered_tube)] {
+    {
+        let (what, p) = ("jittered tube", jittered_tube);
         let m = mesh(p, &t);
         let area = Shape::Mesh(m.clone()).area();
         let g = group_mesh(&m, "t", "m").unwrap();
@@ -950,4 +948,240 @@ fn near_circles_stay_polygons_and_say_why() {
     let g = group_mesh(&mesh(p, &t), "t", "m").unwrap();
     assert!(g.warnings.is_empty(), "{:?}", g.warnings);
     assert!(g.parts.iter().all(|x| cylinder_of(x).is_none()));
+}
+
+/// A recognised cone: apex, unit axis (apex towards the patch), radius per unit height,
+/// azimuth span, and the patch's nearest and farthest heights from the apex.
+type Cone = (DVec3, DVec3, f64, f64, (f64, f64));
+
+fn cone_of(part: &wavelux_scene::MeshPart) -> Option<Cone> {
+    let Shape::Patch(p) = &part.shape else {
+        return None;
+    };
+    match p.surface {
+        AnalyticSurface::Cone {
+            placement,
+            radius,
+            height,
+            azimuth,
+            generator,
+        } => Some((
+            placement.origin,
+            placement.axis.normalize(),
+            radius / height,
+            azimuth.1 - azimuth.0,
+            (generator.0 * height, generator.1 * height),
+        )),
+        _ => None,
+    }
+}
+
+/// A frustum about `z` from radius `r0` at `z = 0` to `r1` at `z = h` over `span`
+/// radians, facing outwards (inwards when `inward`).
+fn frustum(
+    r0: f64,
+    r1: f64,
+    h: f64,
+    stacks: u32,
+    sectors: u32,
+    span: f64,
+    inward: bool,
+) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    let p = rings(stacks + 1, sectors, span, |k, _, _| {
+        let f = f64::from(k) / f64::from(stacks);
+        (r0 + (r1 - r0) * f, h * f)
+    });
+    let cols = if span >= TAU { sectors } else { sectors + 1 };
+    (p, grid_tris(stacks + 1, cols, span >= TAU, inward))
+}
+
+#[test]
+fn tessellated_cones_are_cones_at_every_scale() {
+    // Frusta narrowing upwards (apex above) and widening (apex below), from a slight
+    // taper (1 → 0.9 over 2) to nearly the tip (1 → 0.05), full and partial turns.
+    for (r0, r1) in [(1.0, 0.9), (1.0, 0.4), (0.3, 1.2), (1.0, 0.05)] {
+        for sectors in [16, 64, 256] {
+            for span in [TAU, 2.0] {
+                for inward in [false, true] {
+                    for e in [-4, 0, 4] {
+                        let s = 10f64.powi(e);
+                        let m = placed(s, DVec3::new(4.0, -3.0, 2.0) * s);
+                        let (p, t) = frustum(r0, r1, 2.0, 3, sectors, span, inward);
+                        let g = group_mesh(&mesh(moved(m, p), &t), "t", "m").unwrap();
+                        let what = format!(
+                            "{r0} → {r1}, {sectors} sectors, span {span:.2}, inward {inward}, scale {s}"
+                        );
+                        assert!(g.warnings.is_empty(), "{what}: {:?}", g.warnings);
+                        let [part] = &g.parts[..] else {
+                            panic!("{what}: {} parts", g.parts.len())
+                        };
+                        let (apex, axis, slope, az, h) =
+                            cone_of(part).unwrap_or_else(|| panic!("{what}: {:?}", part.shape));
+                        // Apex on the axis where the radius reaches 0.
+                        let z_apex = 2.0 * r0 / (r0 - r1);
+                        let want_apex = m.transform_point3(DVec3::new(0.0, 0.0, z_apex));
+                        assert!(
+                            (apex - want_apex).length() < 1e-7 * s * z_apex.abs(),
+                            "{what}: apex {apex} vs {want_apex}"
+                        );
+                        let up = m.transform_vector3(DVec3::Z) / s;
+                        let want_axis = if z_apex > 0.0 { -up } else { up };
+                        assert!((axis - want_axis).length() < 1e-9, "{what}: axis {axis}");
+                        let want_slope = (r0 - r1).abs() / 2.0;
+                        assert!(
+                            (slope - want_slope).abs() < 1e-9 * want_slope,
+                            "{what}: slope {slope}"
+                        );
+                        assert!((az - span).abs() < 1e-9, "{what}: azimuth span {az}");
+                        let (near, far) = (r0.min(r1), r0.max(r1));
+                        let want_h = (near / want_slope, far / want_slope);
+                        assert!(
+                            (h.0 - want_h.0 * s).abs() < 1e-7 * s * want_h.1
+                                && (h.1 - want_h.1 * s).abs() < 1e-7 * s * want_h.1,
+                            "{what}: heights {h:?} vs {want_h:?}"
+                        );
+                        assert_eq!(part.reversed, inward, "{what}");
+                        // Lateral area of the frustum part: span/2 (r0 + r1) · slant.
+                        let exact = 0.5 * span * (r0 + r1) * (r0 - r1).hypot(2.0) * s * s;
+                        assert!(
+                            (part.shape.area() - exact).abs() < 1e-9 * exact,
+                            "{what}: area {} vs {exact}",
+                            part.shape.area()
+                        );
+                        // The patch's front side faces away from the axis, and its
+                        // points lie on the input cone.
+                        let Shape::Patch(patch) = &part.shape else {
+                            unreachable!()
+                        };
+                        let map = patch.surface.parametrization("t", "m").unwrap();
+                        for uv in [glam::DVec2::new(0.3, 0.2), glam::DVec2::new(0.8, 0.9)] {
+                            let sp = map.eval(uv);
+                            let local = m.inverse().transform_point3(sp.position);
+                            let radial = DVec3::new(local.x, local.y, 0.0);
+                            let want_r = r0 + (r1 - r0) * local.z / 2.0;
+                            assert!((radial.length() - want_r).abs() < 1e-9, "{what}: {local}");
+                            let n = m.inverse().transform_vector3(sp.normal);
+                            assert!(n.dot(radial) > 0.0, "{what}: normal {n}");
+                        }
+                        assert_eq!(g.grouped_triangles, t.len(), "{what}");
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn near_cones_stay_facets_and_say_why() {
+    // A jittered frustum (radii ± 1e-3): a cone near miss; a barrel (radius bulging by
+    // 5 % in the middle): near no cone or cylinder within the vertex tolerance, named
+    // after the nearest candidate; too coarse (12 sectors): silently facets.
+    let jittered = rings(5, 64, TAU, |k, j, _| {
+        let f = f64::from(k) / 4.0;
+        (
+            (1.0 - 0.5 * f) * (1.0 + 1e-3 * (7.3 * f64::from(j + 3 * k)).sin()),
+            2.0 * f,
+        )
+    });
+    let t = grid_tris(5, 64, true, false);
+    let m = mesh(jittered, &t);
+    let area = Shape::Mesh(m.clone()).area();
+    let g = group_mesh(&m, "t", "m").unwrap();
+    assert!(g.parts.iter().all(|x| cone_of(x).is_none()));
+    let got: f64 = g.parts.iter().map(|x| x.shape.area()).sum();
+    assert!((got - area).abs() < 1e-9 * area);
+    let w = curve_warnings(&g);
+    assert_eq!(w.len(), 1, "{:?}", g.warnings);
+    assert_eq!(w[0].0, "cone");
+    assert!(w[0].1.contains("from the best cone"), "{}", w[0].1);
+    let (p, t) = frustum(1.0, 0.5, 2.0, 3, 12, TAU, false);
+    let g = group_mesh(&mesh(p, &t), "t", "m").unwrap();
+    assert!(g.warnings.is_empty(), "{:?}", g.warnings);
+    assert!(g.parts.iter().all(|x| cone_of(x).is_none()));
+}
+
+/// A rounded rectangle `w × h` (corner radius `r`, `arc` segments per corner) in `z =
+/// 0`, facing `+z`, as a fan from its centre; and its outline.
+fn rounded_rectangle(w: f64, h: f64, r: f64, arc: u32) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    let mut p = vec![DVec3::ZERO];
+    let corners = [
+        (0.5 * w - r, 0.5 * h - r),
+        (-0.5 * w + r, 0.5 * h - r),
+        (-0.5 * w + r, -0.5 * h + r),
+        (0.5 * w - r, -0.5 * h + r),
+    ];
+    for (q, (cx, cy)) in corners.into_iter().enumerate() {
+        for k in 0..=arc {
+            let a = (q as f64 + f64::from(k) / f64::from(arc)) * TAU / 4.0;
+            p.push(DVec3::new(cx + r * a.cos(), cy + r * a.sin(), 0.0));
+        }
+    }
+    // Where corners' arcs meet (a slot's ends), their common point once.
+    p.dedup_by(|b, a| (*b - *a).length() < 1e-12);
+    if (p[p.len() - 1] - p[1]).length() < 1e-12 {
+        p.pop();
+    }
+    let n = p.len() as u32 - 1;
+    let t = (0..n).map(|k| [0, 1 + k, 1 + (k + 1) % n]).collect();
+    (p, t)
+}
+
+#[test]
+fn rounded_corners_and_slots_become_arcs_at_every_scale() {
+    use std::f64::consts::PI;
+    for arc in [4, 8, 32] {
+        for e in [-4, 0, 4] {
+            let s = 10f64.powi(e);
+            let m = placed(s, DVec3::new(1.0, 2.0, -3.0) * s);
+            // A rounded rectangle, and a slot (a stadium: the corners' arcs meet).
+            for (w, h, r) in [(3.0, 2.0, 0.4), (4.0, 1.0, 0.5)] {
+                let (p, t) = rounded_rectangle(w, h, r, arc);
+                let g = group_mesh(&mesh(moved(m, p), &t), "t", "m").unwrap();
+                let what = format!("{w} × {h} r {r}, {arc} segments per corner, scale {s}");
+                assert!(g.warnings.is_empty(), "{what}: {:?}", g.warnings);
+                let [part] = &g.parts[..] else {
+                    panic!("{what}: {} parts", g.parts.len())
+                };
+                let poly = polygon(&part.shape);
+                let arcs: Vec<f64> = poly
+                    .outer
+                    .edges
+                    .iter()
+                    .filter_map(|e| match e {
+                        LoopEdge::Arc { start, center, .. } => Some((*start - *center).length()),
+                        LoopEdge::Segment { .. } => None,
+                    })
+                    .collect();
+                // Corners meeting in a slot join into two half circles.
+                let want = if 2.0 * r == h { 2 } else { 4 };
+                assert_eq!(arcs.len(), want, "{what}: {:?}", poly.outer);
+                assert!(arcs.iter().all(|&x| (x - r * s).abs() < 1e-9 * s), "{what}");
+                let exact = (w * h - (4.0 - PI) * r * r) * s * s;
+                assert!(
+                    (part.shape.area() - exact).abs() < 1e-9 * exact,
+                    "{what}: area {} vs {exact}",
+                    part.shape.area()
+                );
+            }
+        }
+    }
+    // Three segments per corner (30° each, coarser than a circle's facets) stay
+    // segments, silently.
+    // (With 16 vertices, the outline is a near-miss disk, as before.)
+    let (p, t) = rounded_rectangle(3.0, 2.0, 0.4, 3);
+    let g = group_mesh(&mesh(p, &t), "t", "m").unwrap();
+    assert!(
+        curve_warnings(&g).iter().all(|w| w.0 == "disk") && g.warnings.len() <= 1,
+        "{:?}",
+        g.warnings
+    );
+    let poly = polygon(&g.parts[0].shape);
+    assert!(
+        poly.outer
+            .edges
+            .iter()
+            .all(|e| matches!(e, LoopEdge::Segment { .. })),
+        "{:?}",
+        poly.outer
+    );
 }
