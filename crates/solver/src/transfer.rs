@@ -1018,14 +1018,12 @@ impl<'a> TransferCtx<'a> {
                 return None;
             }
         }
-        let (_, a) = pr.support.bounding_sphere(rs.s0, rs.t0, rs.h);
-        let (_, b) = pe.support.bounding_sphere(es.s0, es.t0, es.h);
-        let same = (a - b).abs() <= 1e-6 * a.max(b);
-        self.rule_for_corners(&rc, &ec, tol, same)
+        self.singular_rule(pr, rs, pe, es, size)
     }
 
-    /// The singular rule for touching affine sub-squares, if they share exactly a
-    /// full edge or exactly one corner.
+    /// The singular rule for touching sub-squares (affine ones, or curved ones whose
+    /// shared edge [`Self::mapped_rule`] checked), if they share exactly a full edge or,
+    /// same size, exactly one corner.
     fn singular_rule(
         &self,
         pr: &Patch,
