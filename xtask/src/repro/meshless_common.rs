@@ -1,7 +1,8 @@
 //! Shared pieces of the meshless reproductions (Meshless §2.3, §3, §4.2): the test
 //! points seen by a scene's camera, the independent path-traced indirect irradiance at
 //! them (`wavelux_render::PathTracer::indirect_irradiance_at`), the relative L1 error
-//! with the reference's own noise floor, and a precomputation with its wall time.
+//! with the reference's own noise floor, a precomputation with the CPU time of its
+//! phases, and a relit frame with the CPU time of its phases ([`crate::cpu`]).
 //!
 //! The error measure (issue 15, "Ground truth"): indirect scalar irradiance `n·i`
 //! (W/m², RGB) at points of the camera's view, `Σ_p Σ_c |ours − ref| / Σ_p Σ_c |ref|`.
@@ -9,11 +10,13 @@
 //! comes with the floor `Σ √(2/π)·σ / Σ |ref|` (the expected `|noise|` of a Gaussian
 //! estimate with standard error `σ`), reported next to it.
 
+use crate::cpu::{Elapsed, Stopwatch};
 use anyhow::Context;
 use rayon::prelude::*;
-use std::time::Instant;
+use std::sync::Mutex;
 use wavelux::meshless::{
-    DirectLighting, Indirect, MeshlessConfig, Precomputed, SceneSurfaces, SurfaceQuery,
+    CpuBackend, DirectLighting, Indirect, MeshlessConfig, Precomputed, Relighter, SceneSurfaces,
+    SurfaceQuery,
 };
 use wavelux::param::glam::DVec3;
 use wavelux::render::{Image, PathTracer, ReferenceOptions, View};
@@ -179,12 +182,96 @@ pub fn with_lights(scene: &Scene, lights: &[Light]) -> Scene {
     s
 }
 
-/// Precomputes and returns the wall time (s) of the whole call.
-pub fn precompute(scene: &Scene, cfg: &MeshlessConfig) -> anyhow::Result<(Precomputed, f64)> {
-    let t = Instant::now();
-    let pre = Precomputed::build(scene, cfg, &|_, _, _| {})
-        .with_context(|| format!("meshless precomputation of {}", scene.name))?;
-    Ok((pre, t.elapsed().as_secs_f64()))
+/// The time of one precomputation: the whole call (wall and CPU) and the CPU seconds
+/// of its phases, read at the crate's progress calls. Placement ends at the last
+/// "points" call; the refinement (which includes building the basis's DAG, done
+/// between the two) ends at the first "bounces" call; the bounces at the last one.
+/// Without a CPU clock the phases are wall seconds ([`Elapsed::cpu_or_wall`]).
+#[derive(Debug, Clone, Copy)]
+pub struct PrecomputeTime {
+    /// The whole call.
+    pub total: Elapsed,
+    /// Point placement (CPU s).
+    pub placement: f64,
+    /// Refinement of `T` (CPU s).
+    pub refine: f64,
+    /// The bounce products (CPU s).
+    pub bounces: f64,
+}
+
+/// Precomputes and times the call and its phases ([`PrecomputeTime`]).
+pub fn precompute(
+    scene: &Scene,
+    cfg: &MeshlessConfig,
+) -> anyhow::Result<(Precomputed, PrecomputeTime)> {
+    let watch = Stopwatch::start();
+    let marks: Mutex<Vec<(String, usize, f64)>> = Mutex::new(Vec::new());
+    let pre = Precomputed::build(scene, cfg, &|phase, done, _| {
+        let t = watch.elapsed().cpu_or_wall();
+        if let Ok(mut m) = marks.lock() {
+            m.push((phase.to_string(), done, t));
+        }
+    })
+    .with_context(|| format!("meshless precomputation of {}", scene.name))?;
+    let total = watch.elapsed();
+    let marks = marks.into_inner().unwrap_or_default();
+    let at = |phase: &str, first: bool| {
+        let mut hits = marks.iter().filter(|m| m.0 == phase).map(|m| m.2);
+        if first { hits.next() } else { hits.next_back() }
+    };
+    let placed = at("points", false).unwrap_or(0.0);
+    let refined = at("bounces", true).unwrap_or(placed);
+    let bounced = at("bounces", false).unwrap_or(refined);
+    Ok((
+        pre,
+        PrecomputeTime {
+            total,
+            placement: placed,
+            refine: refined - placed,
+            bounces: bounced - refined,
+        },
+    ))
+}
+
+/// The CPU time (ms) of one relit frame's phases: the direct irradiance at the sender
+/// points by shadow rays, then `relight_direct` (pull-push, skip and `S·e`). The
+/// crate's own wall-time split of the second stays in the frame's `Indirect::times`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameCpu {
+    /// Direct irradiance at the sender points (CPU ms).
+    pub direct_ms: f64,
+    /// Pull-push, skip and `S·e` (CPU ms).
+    pub transport_ms: f64,
+}
+
+impl FrameCpu {
+    /// Direct + pull-push + `S·e` (CPU ms).
+    pub fn total_ms(&self) -> f64 {
+        self.direct_ms + self.transport_ms
+    }
+}
+
+/// Relights `pre` with punctual `lights` (the phases of `Relighter::relight`, timed
+/// apart in CPU time: [`FrameCpu`]).
+pub fn relight_timed<'a>(
+    pre: &'a Precomputed,
+    relighter: &Relighter<'a, CpuBackend>,
+    query: &SceneSurfaces,
+    lights: &[Light],
+) -> anyhow::Result<(Indirect<'a>, FrameCpu)> {
+    let watch = Stopwatch::start();
+    let direct = DirectLighting::Lights(lights.to_vec()).irradiance(query, &pre.sender_points())?;
+    let direct_ms = 1e3 * watch.elapsed().cpu_or_wall();
+    let watch = Stopwatch::start();
+    let ind = relighter.relight_direct(&direct)?;
+    let transport_ms = 1e3 * watch.elapsed().cpu_or_wall();
+    Ok((
+        ind,
+        FrameCpu {
+            direct_ms,
+            transport_ms,
+        },
+    ))
 }
 
 /// Total points of a precomputation (receiver functions).

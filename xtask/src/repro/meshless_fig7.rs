@@ -4,14 +4,39 @@
 //! The paper (Q6600, 192k functions) shows screenshots (Fig. 7) and quotes per-frame
 //! CPU times while the light moves: direct illumination 8–70 ms, the transport
 //! product 5–54 ms, flattening for display 21–33 ms. It gives no error figure.
+//!
+//! Tolerances (issue 13 §1: derived from a stated accuracy, or why not), registered
+//! before the session-27 run:
+//! - indirect relative L1 against the path tracer, per spot, at most
+//!   `0.05 + f_ref + d/√2`: **derived**. Issue 15 states the method's accuracy at
+//!   ε = 0.005 (this run's ε) as 5 % relative L1 against the path tracer (Cornell
+//!   box). The measured L1 adds two noises that are not the method's truncation: (1)
+//!   the reference's own, whose expected contribution is at most its floor `f_ref`
+//!   (triangle inequality: `‖ours − ref‖ ≤ ‖ours − truth‖ + ‖truth − ref‖`, and the
+//!   floor is the expected `‖truth − ref‖`, [`super::meshless_common`]); (2) the
+//!   precomputation's own Monte Carlo noise (point placement and eq. (16)'s gather
+//!   strata) at this run's reduced 64 gather rays (the crate's default is 256),
+//!   measured in the run: a second precomputation with another seed differs from the
+//!   first by `d` (relative L1 at the same points), and two independent noises of
+//!   equal size `σ` differ by about `√2·σ`, so `σ ≈ d/√2`. Each row prints the three
+//!   terms.
+//! - direct, pull-push + `S·e`, and flattening per frame at most the paper's upper ends
+//!   (70, 54 and 33 ms), in CPU time: **not derived**. The paper gives ranges over its
+//!   scenes with no breakdown by size and no thread count (its Q6600 has four cores,
+//!   so its CPU time per frame may be up to 4× the wall time it quotes); our frames
+//!   hold other sizes (fewer functions, and 4× the paper's 973k links in `S` at this
+//!   run's ε, see the parameters). The bound is the claim "a frame's CPU phases run in
+//!   tens of milliseconds", compared in our CPU time (one rayon thread in the committed
+//!   runs: the CPU time of the frame on one core). Quick runs: info (far smaller
+//!   frames).
 
 use super::meshless_common::{
-    at_points, energy_ratio, functions, precompute, reference_indirect, relative_l1, scene,
-    view_grid, with_lights,
+    at_points, energy_ratio, functions, precompute, reference_indirect, relative_l1, relight_timed,
+    scene, view_grid, with_lights,
 };
+use crate::cpu::Stopwatch;
 use crate::report::{Figure, Report, Row, Table, Tolerance};
 use crate::reproduce::Ctx;
-use std::time::Instant;
 use wavelux::meshless::{CpuBackend, FlattenOperator, MeshlessConfig, Relighter, SceneSurfaces};
 use wavelux::param::glam::DVec3;
 use wavelux::render::{PathTracer, ToneMap};
@@ -76,6 +101,10 @@ fn spots(own: &Light) -> Vec<Light> {
     ]
 }
 
+/// Issue 15's accuracy of the method at ε = 0.005 (relative L1 against the path
+/// tracer), the first term of the L1 tolerance (module docs).
+const ISSUE_ACCURACY: f64 = 0.05;
+
 /// Runs the reproduction.
 pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     let s = if ctx.quick { &QUICK } else { &FULL };
@@ -97,10 +126,29 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         bounce_epsilon: Some(0.005 / 100.0),
         ..MeshlessConfig::default()
     };
-    let (pre, pre_s) = precompute(&base, &cfg)?;
+    // The second seed's solutions first (the noise term of the L1 tolerance), so that
+    // only one precomputation is held at a time.
+    let grid = view_grid(&base, &query, s.points)?;
+    let second: Vec<Vec<[f64; 3]>> = {
+        let (pre2, _) = precompute(
+            &base,
+            &MeshlessConfig {
+                seed: 2,
+                ..cfg.clone()
+            },
+        )?;
+        let relighter = Relighter::new(&pre2, CpuBackend)?;
+        spots(&own)
+            .iter()
+            .map(|spot| {
+                let ind = relighter.relight(&query, std::slice::from_ref(spot))?;
+                Ok(at_points(&ind, &grid.points))
+            })
+            .collect::<anyhow::Result<_>>()?
+    };
+    let (pre, pre_t) = precompute(&base, &cfg)?;
     let relighter = Relighter::new(&pre, CpuBackend)?;
     let flat_op = FlattenOperator::new(&pre.basis);
-    let grid = view_grid(&base, &query, s.points)?;
     r.param(
         "scene",
         format!(
@@ -113,14 +161,25 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         "precompute",
         format!(
             "{} receiver / {} sender levels, R_coarse {}, {} gather rays, ε = 0.005, 8 \
-             bounces (bounce threshold ε/100): {} functions, {} links in S, {pre_s:.1} s",
+             bounces (bounce threshold ε/100): {} functions, {} links in S, {:.1} CPU s \
+             ({:.1} s wall); a second precomputation with seed 2 measures the \
+             precomputation's noise (L1 tolerance)",
             s.levels,
             s.senders,
             s.r_coarse
                 .map_or("5 % of the diagonal".to_string(), |r| format!("{r} m")),
             s.gather_rays,
             functions(&pre),
-            pre.s.nnz()
+            pre.s.nnz(),
+            pre_t.total.cpu_or_wall(),
+            pre_t.total.wall
+        ),
+    );
+    r.param(
+        "timing",
+        format!(
+            "CPU time of each frame phase ({} rayon thread(s); the committed runs use one)",
+            rayon::current_num_threads()
         ),
     );
     r.param(
@@ -147,9 +206,10 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
          inside; at 0.025 they keep too little energy, see meshless-scaling), 8 bounces \
          with the bounce products thresholded at ε/100 (ours: the reference has every \
          bounce; see meshless-scaling's ablation rows) and reduced levels, for the \
-         shared 2-core machine. Times are wall times of this run on the \
-         shared machine with fewer functions than the paper's, so they are compared \
-         against the paper's upper ends only. Images: ours, the reference and |ours − \
+         shared 2-core machine. Times are CPU times of this run's frames with fewer \
+         functions than the paper's, compared against the paper's upper ends only. The \
+         L1 tolerance is derived (module docs): issue 15's 5 % plus the reference's \
+         noise floor plus the precomputation's noise measured with a second seed. Images: ours, the reference and |ours − \
          reference| per camera point, each auto-exposed.",
         grid.points.len(),
         s.paths
@@ -158,10 +218,10 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     let mut table = Vec::new();
     for (k, spot) in spots(&own).iter().enumerate() {
         let lights = std::slice::from_ref(spot);
-        let ind = relighter.relight(&query, lights)?;
-        let t = Instant::now();
+        let (ind, cpu) = relight_timed(&pre, &relighter, &query, lights)?;
+        let t = Stopwatch::start();
         let flat = ind.flatten(&flat_op);
-        let flatten_ms = t.elapsed().as_secs_f64() * 1e3;
+        let flatten_ms = t.elapsed().cpu_or_wall() * 1e3;
         let ours = at_points(&ind, &grid.points);
         let flat_v: Vec<[f64; 3]> = grid
             .points
@@ -174,18 +234,27 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         let (l1, floor) = relative_l1(&ours, &reference);
         let (l1_flat, _) = relative_l1(&flat_v, &reference);
         let times = ind.times;
-        let relight_ms = times.direct_ms + times.pull_push_ms + times.transport_ms;
+        let (d, _) = relative_l1(
+            &second[k],
+            &ours.iter().map(|&m| (m, [0.0; 3])).collect::<Vec<_>>(),
+        );
+        let noise = d / std::f64::consts::SQRT_2;
         r.rows.push(
             Row::new(
                 format!("indirect relative L1 vs path tracer, {}", spot.name),
                 None,
                 l1,
                 "",
-                Tolerance::AtMost(0.15),
+                Tolerance::AtMost(ISSUE_ACCURACY + floor + noise),
             )
             .comment(format!(
-                "reference noise floor {:.2} %; energy ours/ref {:.3}",
+                "tolerance {:.2} % (issue 15) + reference noise floor {:.2} % + \
+                 precomputation noise {:.2} % (seeds 0 and 2 differ by {:.2} %); energy \
+                 ours/ref {:.3}",
+                100.0 * ISSUE_ACCURACY,
                 100.0 * floor,
+                100.0 * noise,
+                100.0 * d,
                 energy_ratio(&ours, &reference)
             )),
         );
@@ -210,21 +279,30 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             }
         };
         r.rows.push(Row::new(
-            format!("direct illumination per frame, {}", spot.name),
+            format!("direct illumination per frame (CPU), {}", spot.name),
             Some(70.0),
-            times.direct_ms,
+            cpu.direct_ms,
             "ms",
             timing(70.0),
         ));
+        r.rows.push(
+            Row::new(
+                format!(
+                    "pull-push + transport product S·e per frame (CPU), {}",
+                    spot.name
+                ),
+                Some(54.0),
+                cpu.transport_ms,
+                "ms",
+                timing(54.0),
+            )
+            .comment(format!(
+                "wall: pull-push {:.2} ms, S·e {:.2} ms",
+                times.pull_push_ms, times.transport_ms
+            )),
+        );
         r.rows.push(Row::new(
-            format!("transport product S·e per frame, {}", spot.name),
-            Some(54.0),
-            times.transport_ms,
-            "ms",
-            timing(54.0),
-        ));
-        r.rows.push(Row::new(
-            format!("flattening per frame, {}", spot.name),
+            format!("flattening per frame (CPU), {}", spot.name),
             Some(33.0),
             flatten_ms,
             "ms",
@@ -232,11 +310,10 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         ));
         table.push(vec![
             spot.name.clone(),
-            format!("{:.2}", times.direct_ms),
-            format!("{:.2}", times.pull_push_ms),
-            format!("{:.2}", times.transport_ms),
+            format!("{:.2}", cpu.direct_ms),
+            format!("{:.2}", cpu.transport_ms),
             format!("{flatten_ms:.2}"),
-            format!("{relight_ms:.2}"),
+            format!("{:.2}", cpu.total_ms()),
             times.active_senders.to_string(),
             format!("{:.2} %", 100.0 * l1),
             format!("{:.2} %", 100.0 * l1_flat),
@@ -265,12 +342,11 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         }
     }
     r.tables.push(Table {
-        title: "Per-frame times (ms) and indirect error".into(),
+        title: "Per-frame CPU times (ms) and indirect error".into(),
         headers: [
             "spot",
             "direct",
-            "pull-push",
-            "S·e",
+            "pull-push + S·e",
             "flatten",
             "relight (direct + pull-push + S·e)",
             "active senders",

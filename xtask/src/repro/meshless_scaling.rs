@@ -230,7 +230,8 @@ impl Setup<'_> {
     /// at the points.
     fn run(&self, cfg: &MeshlessConfig) -> anyhow::Result<(Run, Precomputed)> {
         let (scene, query) = (self.scene, self.query);
-        let (pre, seconds) = precompute(scene, cfg)?;
+        let (pre, time) = precompute(scene, cfg)?;
+        let seconds = time.total.wall;
         let relighter = Relighter::new(&pre, CpuBackend)?;
         let direct = scene_direct(scene, query, self.s.emitter_samples, 1);
         let ind = relighter.relight_with(query, &direct)?;

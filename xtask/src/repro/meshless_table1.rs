@@ -9,9 +9,44 @@
 //! function 92M/192k = 479, refinement share 18:18/26:14 = 0.698, bytes per link
 //! 77.4 MB/973k = 79.5, and the time ratio 28:56/26:14 = 1.10 of a 35× larger mesh
 //! (cost follows the functions, not the triangles).
+//!
+//! Tolerances (issue 13 §1: derived from a stated accuracy, or why not), registered
+//! before the session-27 run:
+//! - level-0 functions `±20 %` of 339: **derived** from issue 15's registration
+//!   ("level 0 tuned to 339 ± 20 %"); the tuner stops within 5 %.
+//! - precompute CPU time `≤ 240 s` with `≥ 50k` receivers: **derived** from issue 15's
+//!   target "< 2 min on 2 cores" (both cores busy for 120 s: 240 CPU s).
+//! - frame CPU time (direct + pull-push + `S·e`) `≤ 20 ms`: **derived** from issue 15's
+//!   target "< 20 ms per frame on the CPU", compared in the CPU time of the frame's
+//!   phases ([`super::meshless_common::relight_timed`]; one rayon thread in the
+//!   committed runs, so it is the time of one core). Until session 26 this row compared
+//!   wall time on the shared machine, which measured its load.
+//! - functions (all levels) within a factor 2 of 192k: **not derived**. With level 0
+//!   fixed, the total follows how much of the scene's area lies in features finer than
+//!   each level's spacing (each level holds at most 4× the previous one on surfaces
+//!   larger than its spacing: `339·(4⁶ − 1)/3 ≈ 463k` at most; the paper's 192k is an
+//!   average growth of 3.55 per level), which the paper does not give for Sponza and
+//!   our atrium only approximates; a factor 2 is a per-level growth within
+//!   `2^(1/5) ≈ 1.15` of the paper's.
+//! - links in T per receiver, link fraction, rays per function, each within a factor
+//!   3: **not derived**. They depend on the link norm's units (the seed's eq. (16) omits
+//!   the Lambertian `1/π`, so its `ε` may be π times ours), on the senders' count, and
+//!   on the gather rays `N_g`, which the paper does not state (ours: 256, so rays per
+//!   function is `N_g` times the share of receivers queued, plus placement); a factor
+//!   3 is our judgment of "the same order".
+//! - refinement share `±0.25` of the paper's 0.70, in CPU time: **not derived** (the
+//!   share follows the relative cost of the refinement and the bounce products, which
+//!   follows the links in S per receiver; our phases are read as CPU time at the
+//!   crate's progress calls).
+//! - bytes per link within a factor 2: **not derived** (the paper's storage precision
+//!   and what its 77.4 MB holds are not stated).
+//! - precompute time atrium-xl / atrium within a factor 1.5 of the paper's 1.10: **not
+//!   derived**. The claim is that the cost follows the functions, not the triangles: a
+//!   cost following the triangles would give ≈ 14× here; ray casting in a BVH grows
+//!   about with the log of the primitives (≈ 1.24× from 52k to 718k), which this
+//!   factor admits.
 
-use super::meshless_common::{functions, precompute, scene};
-use crate::cpu::Stopwatch;
+use super::meshless_common::{functions, precompute, relight_timed, scene};
 use crate::report::{Report, Row, Table, Tolerance};
 use crate::reproduce::Ctx;
 use wavelux::meshless::relight::default_viewpoint;
@@ -113,25 +148,24 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         r_coarse: Some(rc),
         ..base
     };
-    let watch = Stopwatch::start();
-    let (pre, _) = precompute(&small, &cfg)?;
-    let pre_t = watch.elapsed();
+    let (pre, phases) = precompute(&small, &cfg)?;
+    let pre_t = phases.total;
     // Three frames lit by the scene's own spot (the runtime phases of the frame
-    // target); the fastest is compared (the first pays for first touches of memory).
+    // target), in CPU time; the fastest is compared (the first pays for first touches
+    // of memory).
     let relighter = Relighter::new(&pre, CpuBackend)?;
     let mut frames = Vec::new();
     for _ in 0..3 {
-        frames.push(relighter.relight(&q_small, &small.lights)?.times);
+        let (ind, cpu) = relight_timed(&pre, &relighter, &q_small, &small.lights)?;
+        frames.push((cpu, ind.times));
     }
-    let total = |t: &wavelux::meshless::FrameTimes| t.direct_ms + t.pull_push_ms + t.transport_ms;
-    let frame = *frames
+    let (frame, frame_wall) = *frames
         .iter()
-        .min_by(|a, b| total(a).total_cmp(&total(b)))
+        .min_by(|a, b| a.0.total_ms().total_cmp(&b.0.total_ms()))
         .expect("three frames");
     drop(relighter);
-    let watch = Stopwatch::start();
-    let (pre_large, _) = precompute(&large, &cfg)?;
-    let pre_large_t = watch.elapsed();
+    let (pre_large, large_phases) = precompute(&large, &cfg)?;
+    let pre_large_t = large_phases.total;
     // Mesh triangles (a parallelogram of a mesh counts as its two triangles) and the
     // primitives the `Accel` holds after merging triangle pairs into parallelograms.
     let tris = |sc: &wavelux::scene::Scene| -> (usize, usize) {
@@ -161,6 +195,15 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             "{}/{} levels, ε = 0.025 (uniform, the paper's Fig. 5), 4 bounces, {} gather rays per receiver, R_coarse = {rc:.4} m \
              (level 0 tuned to {level0} points on {})",
             s.levels, s.senders, s.gather_rays, s.small
+        ),
+    );
+    r.param(
+        "timing",
+        format!(
+            "CPU time ({} rayon thread(s); the committed runs use one): the \
+             precomputation's phases read at the crate's progress calls, each frame's \
+             phases timed apart",
+            rayon::current_num_threads()
         ),
     );
     r.param(
@@ -255,16 +298,16 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         Row::new(
             "refinement share of the precomputation time",
             Some(1098.0 / 1574.0),
-            st.refine_ms / st.total_ms,
+            phases.refine / pre_t.cpu_or_wall(),
             "",
             Tolerance::Absolute(0.25),
         )
         .comment(format!(
-            "placement {}, refinement {}, bounces {}, total {} (m:s)",
-            secs(st.placement_ms),
-            secs(st.refine_ms),
-            secs(st.bounce_ms),
-            secs(st.total_ms)
+            "CPU: placement {}, refinement {}, bounces {}, total {} (m:s)",
+            secs(1e3 * phases.placement),
+            secs(1e3 * phases.refine),
+            secs(1e3 * phases.bounces),
+            secs(1e3 * pre_t.cpu_or_wall())
         )),
     );
     r.rows.push(
@@ -277,7 +320,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         )
         .comment(format!("{:.1} MB", pre.runtime_bytes() as f64 / 1e6)),
     );
-    let frame_ms = total(&frame);
+    let frame_ms = frame.total_ms();
     let big_enough = f >= PRECOMPUTE_TARGET_FUNCTIONS;
     let gate = |t: Tolerance| if big_enough { t } else { Tolerance::Info };
     r.rows.push(
@@ -307,7 +350,10 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     );
     r.rows.push(
         Row::new(
-            format!("frame time on {}: direct + pull-push + S·e (ms)", s.small),
+            format!(
+                "frame CPU time on {}: direct + pull-push + S·e (ms)",
+                s.small
+            ),
             None,
             frame_ms,
             "ms",
@@ -315,18 +361,20 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         )
         .comment(format!(
             "issue 15's target: < {FRAME_TARGET_MS} ms on the CPU; the scene's spot, fastest \
-             of three frames ({}): direct {:.1} ms, pull-push {:.1} ms, S·e {:.1} ms ({} of \
-             {} senders active); wall time on the shared machine",
+             of three frames in CPU time ({}): direct {:.1} ms, pull-push + S·e {:.1} ms \
+             ({} of {} senders active); wall of the same frame: pull-push {:.1} ms, S·e \
+             {:.1} ms",
             frames
                 .iter()
-                .map(|t| format!("{:.1}", total(t)))
+                .map(|f| format!("{:.1}", f.0.total_ms()))
                 .collect::<Vec<_>>()
                 .join(", "),
             frame.direct_ms,
-            frame.pull_push_ms,
             frame.transport_ms,
-            frame.active_senders,
-            pre.senders()
+            frame_wall.active_senders,
+            pre.senders(),
+            frame_wall.pull_push_ms,
+            frame_wall.transport_ms,
         )),
     );
     let fl = functions(&pre_large) as f64;
@@ -354,7 +402,10 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     );
 
     let mut rows = Vec::new();
-    for (name, p) in [(s.small, &pre), (s.large, &pre_large)] {
+    for (name, p, t) in [
+        (s.small, &pre, &phases),
+        (s.large, &pre_large, &large_phases),
+    ] {
         let st = &p.stats;
         rows.push(vec![
             name.to_string(),
@@ -368,9 +419,9 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             format!("{}/{}", p.config.receiver_levels, p.config.sender_levels),
             st.points_per_level[0].to_string(),
             functions(p).to_string(),
-            secs(st.refine_ms),
-            secs(st.bounce_ms),
-            secs(st.total_ms),
+            secs(1e3 * t.refine),
+            secs(1e3 * t.bounces),
+            secs(1e3 * t.total.cpu_or_wall()),
             format!("{:.1} MB", p.runtime_bytes() as f64 / 1e6),
         ]);
     }
@@ -393,7 +444,8 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         .collect(),
     );
     r.tables.push(Table {
-        title: "Table 1 layout: ours (this run) and the paper's Sponza row".into(),
+        title: "Table 1 layout: ours (this run; times in CPU m:s) and the paper's Sponza row"
+            .into(),
         headers: [
             "scene",
             "links T",
