@@ -230,14 +230,106 @@ impl Sink for RadianceSink {
 /// face, weight).
 type Entries = Vec<(u32, u8, f64)>;
 
-/// Records the weights of the sender faces instead (the [`super::Transport`]): every
-/// contribution goes to the receiver's entry faces with the factors `rows`.
-struct RecordSink<'r> {
-    rows: [f64; 6],
-    out: &'r mut Entries,
+/// Where recorded entries go: a plain list (kept in order), or the sums per (column,
+/// entry face) of a receiver ([`Accumulator`]).
+trait EntryOut {
+    fn push(&mut self, col: u32, row: u8, w: f64);
 }
 
-impl Sink for RecordSink<'_> {
+impl EntryOut for Entries {
+    fn push(&mut self, col: u32, row: u8, w: f64) {
+        Vec::push(self, (col, row, w));
+    }
+}
+
+/// One receiver's transport row being summed: per sender column its six entry-face
+/// weights, found through an open-addressing table (linear probing) that is reused
+/// from receiver to receiver. Each weight is summed in the order the traversal adds
+/// it, so the sums are bitwise those of sorting the entries stably by (column, entry
+/// face) and adding them in order, without sorting or storing every contribution.
+#[derive(Default)]
+struct Accumulator {
+    /// Table of `(column + 1, index into vals)`; 0 marks a free slot; power-of-two length.
+    table: Vec<(u32, u32)>,
+    /// The columns in first-touch order.
+    cols: Vec<u32>,
+    /// Per touched column, its six entry faces' sums.
+    vals: Vec<[f64; 6]>,
+}
+
+impl Accumulator {
+    fn slot(&self, col: u32) -> usize {
+        // Fibonacci hashing of the column; the table's length is a power of two.
+        let mask = self.table.len() - 1;
+        let mut i = (u64::from(col).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32) as usize & mask;
+        while self.table[i].0 != 0 && self.table[i].0 != col + 1 {
+            i = (i + 1) & mask;
+        }
+        i
+    }
+
+    fn grow(&mut self) {
+        let len = (2 * self.table.len()).max(1024);
+        self.table = vec![(0, 0); len];
+        for (k, &c) in self.cols.iter().enumerate() {
+            let i = self.slot(c);
+            self.table[i] = (c + 1, k as u32);
+        }
+    }
+
+    /// The sorted entries `(column, entry face, sum · scale)` with a non-zero weight,
+    /// appended to `out`; the accumulator is left empty.
+    fn drain_sorted(&mut self, scale: f64, out: &mut Entries) {
+        let mut order: Vec<(u32, u32)> = self
+            .cols
+            .iter()
+            .enumerate()
+            .map(|(k, &c)| (c, k as u32))
+            .collect();
+        order.sort_unstable();
+        for (c, k) in order {
+            for (row, &w) in self.vals[k as usize].iter().enumerate() {
+                let w = w * scale;
+                if w != 0.0 {
+                    out.push((c, row as u8, w));
+                }
+            }
+        }
+        if !self.cols.is_empty() {
+            self.table.fill((0, 0));
+        }
+        self.cols.clear();
+        self.vals.clear();
+    }
+}
+
+impl EntryOut for Accumulator {
+    fn push(&mut self, col: u32, row: u8, w: f64) {
+        if 2 * (self.cols.len() + 1) > self.table.len() {
+            self.grow();
+        }
+        let i = self.slot(col);
+        let k = if self.table[i].0 == 0 {
+            let k = self.cols.len();
+            self.table[i] = (col + 1, k as u32);
+            self.cols.push(col);
+            self.vals.push([0.0; 6]);
+            k
+        } else {
+            self.table[i].1 as usize
+        };
+        self.vals[k][row as usize] += w;
+    }
+}
+
+/// Records the weights of the sender faces instead (the [`super::Transport`]): every
+/// contribution goes to the receiver's entry faces with the factors `rows`.
+struct RecordSink<'r, O: EntryOut> {
+    rows: [f64; 6],
+    out: &'r mut O,
+}
+
+impl<O: EntryOut> Sink for RecordSink<'_, O> {
     fn add(&mut self, _: &Tracer<'_>, w: f64, h: &Hit, entry: [f64; 3], d: [f64; 3]) {
         for (a, &ea) in entry.iter().enumerate() {
             if ea == 0.0 {
@@ -246,11 +338,51 @@ impl Sink for RecordSink<'_> {
             let col = (6 * h.ci + entry_face(a, d)) as u32;
             for (row, &f) in self.rows.iter().enumerate() {
                 if f != 0.0 {
-                    self.out.push((col, row as u8, w * ea * f));
+                    self.out.push(col, row as u8, w * ea * f);
                 }
             }
         }
     }
+}
+
+/// Sums the radiance and records the entries in one traversal (the recording's first
+/// pass, whose radiances choose the supersampled pixels).
+struct BothSink<'r, O: EntryOut> {
+    radiance: RadianceSink,
+    record: RecordSink<'r, O>,
+}
+
+impl<O: EntryOut> Sink for BothSink<'_, O> {
+    fn add(&mut self, tracer: &Tracer<'_>, w: f64, h: &Hit, entry: [f64; 3], d: [f64; 3]) {
+        self.radiance.add(tracer, w, h, entry, d);
+        self.record.add(tracer, w, h, entry, d);
+    }
+}
+
+/// The recording rows of one sample ray of a pixel of solid angle `solid_angle` with
+/// collision weights `w` and entry faces `entries`: the ray's radiance reaches entry
+/// face `e` (`Some`: a face sample) or all three (`None`: a cell sample) with the
+/// weight `ΔΩ · w_e · inv · share`.
+fn sample_rows(
+    entries: [u8; 3],
+    solid_angle: f64,
+    w: [f64; 3],
+    e: Option<usize>,
+    inv: f64,
+    share: f64,
+) -> [f64; 6] {
+    let mut rows = [0.0; 6];
+    match e {
+        Some(e) => {
+            rows[entries[e] as usize] = solid_angle * w[e] * inv * share;
+        }
+        None => {
+            for e in 0..3 {
+                rows[entries[e] as usize] += solid_angle * w[e] * inv * share;
+            }
+        }
+    }
+    rows
 }
 
 /// A ray: origin and direction in voxel units, where it starts and the face (as
@@ -569,7 +701,12 @@ impl Tracer<'_> {
             let mut tied = [0usize; 3];
             let mut n_tied = 0;
             for a in 0..3 {
-                base[a] = voxel_coordinate(o[a] + te * d[a], d[a]).clamp(lo[a], hi[a] - 1);
+                // (A one-voxel box has one voxel beside every exit point.)
+                base[a] = if size == 1 {
+                    lo[a]
+                } else {
+                    voxel_coordinate(o[a] + te * d[a], d[a]).clamp(lo[a], hi[a] - 1)
+                };
                 if ta[a] == te {
                     stepped[a] = if d[a] > 0.0 { hi[a] } else { lo[a] - 1 };
                     base[a] = if d[a] > 0.0 { hi[a] - 1 } else { lo[a] };
@@ -689,7 +826,10 @@ impl Tracer<'_> {
         }
     }
 
-    /// Radiance per entry face `k` (of `entries`) along direction `d`.
+    /// Radiance per entry face `k` (of `entries`) along direction `d`. With `record`
+    /// (the pixel's solid angle and a list), the same traversals also append the
+    /// pixel's transport entries to the list, in the order and with the weights of
+    /// [`Tracer::record_one`]'s own traversal of the pixel.
     fn radiances(
         &self,
         v: &ReceiverView,
@@ -697,12 +837,29 @@ impl Tracer<'_> {
         entries: [u8; 3],
         weights: [f64; 3],
         footprint: f64,
+        mut record: Option<(f64, &mut Entries)>,
     ) -> ([[f64; 3]; 3], u64) {
         let mut out = [[0.0; 3]; 3];
         let mut sum = [0.0; 3];
         let mut steps = 0;
         self.for_samples(v, d, entries, weights, |ray, e, inv| {
-            let tr = self.trace(ray, footprint);
+            let tr = match record.as_mut() {
+                None => self.trace(ray, footprint),
+                Some((solid_angle, list)) => {
+                    let mut sink = BothSink {
+                        radiance: RadianceSink([0.0; 3]),
+                        record: RecordSink {
+                            rows: sample_rows(entries, *solid_angle, weights, e, inv, 1.0),
+                            out: &mut **list,
+                        },
+                    };
+                    let steps = self.trace_into(ray, footprint, false, &mut sink);
+                    Traced {
+                        radiance: sink.radiance.0,
+                        steps,
+                    }
+                }
+            };
             steps += tr.steps;
             let acc = match e {
                 Some(e) => &mut out[e],
@@ -743,8 +900,9 @@ impl Tracer<'_> {
     /// The first pass over one frustum's pixels `face` (of a map of side `n`): every
     /// pixel's collision weights and, with `trace`, the entry radiances of its centre
     /// ray(s); with supersampling on, the pixels it replaces (those whose weighted
-    /// mean radiance contrasts with one of their neighbours, [`AntiAlias`]). Returns
-    /// the cells composited.
+    /// mean radiance contrasts with one of their neighbours, [`AntiAlias`]). With
+    /// `record` (and `trace`), every pixel's transport entries of its centre ray(s)
+    /// are kept too ([`PixelEntries`]). Returns the cells composited.
     fn centre_pass(
         &self,
         v: &ReceiverView,
@@ -753,9 +911,14 @@ impl Tracer<'_> {
         aa: &AntiAlias,
         trace: bool,
         pass: &mut FacePass,
+        mut record: Option<&mut PixelEntries>,
     ) -> u64 {
         let n = pass.side;
         let mut steps = 0;
+        if let Some(r) = record.as_mut() {
+            r.list.clear();
+            r.ends.clear();
+        }
         for (k, pix) in face.iter().enumerate() {
             let w = entry_weights(pix.abs, v.depth, collision);
             pass.weights[k] = w;
@@ -763,9 +926,16 @@ impl Tracer<'_> {
             if wt <= 0.0 || !trace {
                 pass.rad[k] = [[0.0; 3]; 3];
                 pass.mean[k] = [0.0; 3];
+                if let Some(r) = record.as_mut() {
+                    r.ends.push(r.list.len());
+                }
                 continue;
             }
-            let (l, s) = self.radiances(v, pix.dir, pix.entry, w, v.footprint);
+            let list = record.as_mut().map(|r| (pix.solid_angle, &mut r.list));
+            let (l, s) = self.radiances(v, pix.dir, pix.entry, w, v.footprint, list);
+            if let Some(r) = record.as_mut() {
+                r.ends.push(r.list.len());
+            }
             steps += s;
             pass.rad[k] = l;
             pass.mean[k] =
@@ -798,7 +968,10 @@ impl Tracer<'_> {
     /// The transport row of receiver `r`: the weights with which the sender faces'
     /// coefficients reach its entry faces (the linear map of [`Tracer::gather_one`]
     /// with the same `aa`, the supersampled pixels being those the tracer's emission
-    /// selects), sorted by (column, row) with duplicates summed, and the cells
+    /// selects), sorted by (column, row) with duplicates summed (each in the order
+    /// the traversals add it), appended to `out`. With supersampling the first pass
+    /// records while it traces the radiances that choose the supersampled pixels, so
+    /// a pixel that is not supersampled is traversed once. Returns the cells
     /// composited.
     fn record_one(
         &self,
@@ -806,17 +979,20 @@ impl Tracer<'_> {
         map: &CubeMap,
         collision: Collision,
         aa: &AntiAlias,
-    ) -> (Vec<(u32, u8, f64)>, u64) {
+        scratch: &mut RecordScratch,
+        out: &mut Entries,
+    ) -> u64 {
         let v = self.receiver_view(r, map);
         let n = map.side;
         let supersampled = aa.subdivisions > 1;
         let mut pass = FacePass::new(n);
-        let mut raw = Vec::new();
+        let RecordScratch { acc, pixels } = scratch;
         let mut norm = 0.0;
         let mut steps = 0;
         for f in 0..6 {
             let face = &map.pixels[f * n * n..(f + 1) * n * n];
-            steps += self.centre_pass(&v, face, collision, aa, supersampled, &mut pass);
+            let kept = supersampled.then_some(&mut *pixels);
+            steps += self.centre_pass(&v, face, collision, aa, supersampled, &mut pass, kept);
             for (k, pix) in face.iter().enumerate() {
                 let w = pass.weights[k];
                 let wt = w[0] + w[1] + w[2];
@@ -824,6 +1000,14 @@ impl Tracer<'_> {
                     continue;
                 }
                 norm += pix.solid_angle * wt;
+                if supersampled && !pass.flag[k] {
+                    // Recorded by the first pass.
+                    let from = if k == 0 { 0 } else { pixels.ends[k - 1] };
+                    for &(c, row, x) in &pixels.list[from..pixels.ends[k]] {
+                        acc.push(c, row, x);
+                    }
+                    continue;
+                }
                 // (direction, share of the pixel, footprint) of each ray direction.
                 let dirs: Vec<([f64; 3], f64, f64)> = if pass.flag[k] {
                     let subs = sub_pixels(f, k % n, k / n, n, aa.subdivisions as usize);
@@ -837,21 +1021,9 @@ impl Tracer<'_> {
                     self.for_samples(&v, d, pix.entry, w, |ray, e, inv| {
                         // (A share of 1 leaves the products bitwise those of the
                         // unsupersampled map.)
-                        let mut rows = [0.0; 6];
-                        match e {
-                            Some(e) => {
-                                rows[pix.entry[e] as usize] = pix.solid_angle * w[e] * inv * share;
-                            }
-                            None => {
-                                for e in 0..3 {
-                                    rows[pix.entry[e] as usize] +=
-                                        pix.solid_angle * w[e] * inv * share;
-                                }
-                            }
-                        }
                         let mut sink = RecordSink {
-                            rows,
-                            out: &mut raw,
+                            rows: sample_rows(pix.entry, pix.solid_angle, w, e, inv, share),
+                            out: &mut *acc,
                         };
                         steps += self.trace_into(ray, fp, false, &mut sink);
                     });
@@ -864,19 +1036,8 @@ impl Tracer<'_> {
         } else {
             0.0
         };
-        raw.sort_by_key(|&(c, row, _)| (c, row));
-        let mut merged: Entries = Vec::with_capacity(raw.len() / 4);
-        for (c, row, w) in raw {
-            match merged.last_mut() {
-                Some(last) if last.0 == c && last.1 == row => last.2 += w,
-                _ => merged.push((c, row, w)),
-            }
-        }
-        for m in &mut merged {
-            m.2 *= scale;
-        }
-        merged.retain(|m| m.2 != 0.0);
-        (merged, steps)
+        acc.drain_sorted(scale, out);
+        steps
     }
 
     fn gather_one(
@@ -894,7 +1055,7 @@ impl Tracer<'_> {
         let mut pass = FacePass::new(n);
         for f in 0..6 {
             let face = &map.pixels[f * n * n..(f + 1) * n * n];
-            steps += self.centre_pass(&v, face, collision, aa, true, &mut pass);
+            steps += self.centre_pass(&v, face, collision, aa, true, &mut pass, None);
             let s = aa.subdivisions as usize;
             for k in 0..n * n {
                 if !pass.flag[k] {
@@ -912,6 +1073,7 @@ impl Tracer<'_> {
                         face[k].entry,
                         pass.weights[k],
                         v.footprint / s as f64,
+                        None,
                     );
                     steps += st;
                     for e in 0..3 {
@@ -964,6 +1126,21 @@ struct ReceiverView {
     footprint: f64,
     /// `Ĝ` of the cell.
     total_weight: f64,
+}
+
+/// The transport entries of one frustum's pixels recorded by the first pass
+/// ([`Tracer::centre_pass`]): pixel `k`'s are `list[ends[k − 1]..ends[k]]`.
+#[derive(Default)]
+struct PixelEntries {
+    list: Entries,
+    ends: Vec<usize>,
+}
+
+/// A recording thread's buffers, reused from receiver to receiver.
+#[derive(Default)]
+struct RecordScratch {
+    acc: Accumulator,
+    pixels: PixelEntries,
 }
 
 /// Per pixel of one frustum (a map of side `side`): collision weights, entry radiances,
@@ -1158,11 +1335,16 @@ impl Projector for CpuProjector {
             ..super::Transport::default()
         };
         for block in receivers.chunks(256) {
-            let rows: Vec<(Entries, u64)> = block
+            let rows: Vec<Entries> = block
                 .par_iter()
-                .map(|r| tracer.record_one(r, maps.of(r.framebuffer), collision, &self.antialias))
+                .map_init(RecordScratch::default, |scratch, r| {
+                    let mut row = Entries::new();
+                    let map = maps.of(r.framebuffer);
+                    tracer.record_one(r, map, collision, &self.antialias, scratch, &mut row);
+                    row
+                })
                 .collect();
-            for (row, _) in rows {
+            for row in rows {
                 for (c, f, w) in row {
                     t.columns.push(c);
                     t.rows.push(f);
@@ -1267,5 +1449,61 @@ impl Projector for CpuProjector {
             }
         }
         Ok(total)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// The sums of sorting `raw` stably by (column, entry face), adding duplicates in
+    /// order and scaling: what the accumulator must reproduce bitwise.
+    fn sorted_sums(mut raw: Entries, scale: f64) -> Entries {
+        raw.sort_by_key(|&(c, row, _)| (c, row));
+        let mut merged: Entries = Vec::new();
+        for (c, row, w) in raw {
+            match merged.last_mut() {
+                Some(last) if last.0 == c && last.1 == row => last.2 += w,
+                _ => merged.push((c, row, w)),
+            }
+        }
+        for m in &mut merged {
+            m.2 *= scale;
+        }
+        merged.retain(|m| m.2 != 0.0);
+        merged
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// The accumulator's rows equal the stable sort-and-sum bitwise, for lists that
+        /// overflow its table more than once (up to 1,500 distinct columns against a
+        /// first table of 1,024 slots), and it is empty again afterwards (a second list
+        /// gives its own sums).
+        #[test]
+        fn accumulator_sums_like_a_stable_sort(
+            lists in prop::collection::vec(
+                prop::collection::vec((0u32..1500, 0u8..6, 0.0f64..1e3), 0..3000),
+                2,
+            ),
+            scale in 1e-3f64..1e3,
+        ) {
+            let mut acc = Accumulator::default();
+            for raw in lists {
+                for &(c, row, w) in &raw {
+                    acc.push(c, row, w);
+                }
+                let mut got = Entries::new();
+                acc.drain_sorted(scale, &mut got);
+                let want = sorted_sums(raw, scale);
+                prop_assert_eq!(got.len(), want.len());
+                for (g, w) in got.iter().zip(&want) {
+                    prop_assert_eq!((g.0, g.1), (w.0, w.1));
+                    prop_assert_eq!(g.2.to_bits(), w.2.to_bits());
+                }
+            }
+        }
     }
 }
