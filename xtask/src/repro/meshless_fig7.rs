@@ -7,19 +7,20 @@
 //!
 //! Tolerances (issue 13 §1: derived from a stated accuracy, or why not), registered
 //! before the session-27 run:
-//! - indirect relative L1 against the path tracer, per spot, at most
-//!   `0.05 + f_ref + d/√2`: **derived**. Issue 15 states the method's accuracy at
-//!   ε = 0.005 (this run's ε) as 5 % relative L1 against the path tracer (Cornell
-//!   box). The measured L1 adds two noises that are not the method's truncation: (1)
-//!   the reference's own, whose expected contribution is at most its floor `f_ref`
-//!   (triangle inequality: `‖ours − ref‖ ≤ ‖ours − truth‖ + ‖truth − ref‖`, and the
-//!   floor is the expected `‖truth − ref‖`, [`super::meshless_common`]); (2) the
-//!   precomputation's own Monte Carlo noise (point placement and eq. (16)'s gather
-//!   strata) at this run's reduced 64 gather rays (the crate's default is 256),
-//!   measured in the run: a second precomputation with another seed differs from the
-//!   first by `d` (relative L1 at the same points), and two independent noises of
-//!   equal size `σ` differ by about `√2·σ`, so `σ ≈ d/√2`. Each row prints the three
-//!   terms.
+//! - indirect relative L1 against the path tracer, per spot, at most `0.05 + f_ref`:
+//!   **derived**. Issue 15 states the method's accuracy at ε = 0.005 (this run's ε) as
+//!   5 % relative L1 against the path tracer (Cornell box). The reference's own noise
+//!   adds at most its floor `f_ref` to the measured L1 (triangle inequality:
+//!   `‖ours − ref‖ ≤ ‖ours − truth‖ + ‖truth − ref‖`, and the floor is the expected
+//!   `‖truth − ref‖`, [`super::meshless_common`]). The precomputation's own Monte
+//!   Carlo noise (point placement and eq. (16)'s gather strata at this run's reduced
+//!   64 gather rays; the crate's default is 256) is part of the method's error as a
+//!   user sees it, so it is not excused: each row prints it (a second precomputation
+//!   with another seed differs from the first by `d`; two independent noises of equal
+//!   size `σ` differ by about `√2·σ`, so `σ ≈ d/√2`) as information only. Session 27's
+//!   first version added `d/√2` to the bound; the lead removed it before the next run,
+//!   because a bound that widens with the judged method's own scatter cannot fail a
+//!   noisy method.
 //! - direct, pull-push + `S·e`, and flattening per frame at most the paper's upper ends
 //!   (70, 54 and 33 ms), in CPU time: **not derived**. The paper gives ranges over its
 //!   scenes with no breakdown by size and no thread count (its Q6600 has four cores,
@@ -209,7 +210,8 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
          shared 2-core machine. Times are CPU times of this run's frames with fewer \
          functions than the paper's, compared against the paper's upper ends only. The \
          L1 tolerance is derived (module docs): issue 15's 5 % plus the reference's \
-         noise floor plus the precomputation's noise measured with a second seed. Images: ours, the reference and |ours − \
+         noise floor; the precomputation's noise, measured with a second seed, is printed \
+         beside it and not excused. Images: ours, the reference and |ours − \
          reference| per camera point, each auto-exposed.",
         grid.points.len(),
         s.paths
@@ -245,12 +247,12 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
                 None,
                 l1,
                 "",
-                Tolerance::AtMost(ISSUE_ACCURACY + floor + noise),
+                Tolerance::AtMost(ISSUE_ACCURACY + floor),
             )
             .comment(format!(
-                "tolerance {:.2} % (issue 15) + reference noise floor {:.2} % + \
-                 precomputation noise {:.2} % (seeds 0 and 2 differ by {:.2} %); energy \
-                 ours/ref {:.3}",
+                "tolerance {:.2} % (issue 15) + reference noise floor {:.2} %; \
+                 precomputation noise {:.2} % (seeds 0 and 2 differ by {:.2} %, not in the \
+                 bound); energy ours/ref {:.3}",
                 100.0 * ISSUE_ACCURACY,
                 100.0 * floor,
                 100.0 * noise,
