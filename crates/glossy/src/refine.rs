@@ -40,8 +40,15 @@
 //! link whose receiving and sending nodes both have children linked pairwise (every
 //! child pair that received samples when the link was computed has a `φ→φ`
 //! coefficient) gets its coefficients recomputed from those finer `φ→φ` values — the
-//! same Haar steps as [`crate::transport`], on 16× more samples. The paper is silent
-//! when some pairs are missing; we then keep the sampled values.
+//! same Haar steps as [`crate::transport`], on 16× more samples. Ours, where the paper
+//! is silent (some pairs missing): a link from a node's `φ` needs only the receiving
+//! children's `φ→φ` values with the sending node (the sender's Haar step is the
+//! average), and a link into a root `φ` only the sending children's with the
+//! receiving node. Refinement is mostly receiver-side, so without these two the
+//! rebuild never fired (0 links in 8 rounds on the Cornell box) and a receiver's mean
+//! kept the root link's quadrature error for good (the floor under the blocks'
+//! shadows: +10 % at `n = 2`; see `tests/diffuse.rs`). Otherwise the sampled values
+//! are kept.
 
 use std::collections::HashMap;
 
@@ -628,6 +635,125 @@ pub fn values(reach: &[[f64; 2]], cands: &[Candidate], arrive: Option<&Arriving>
         .collect()
 }
 
+/// The finer `φ→φ` values a link's rebuild reads (see the module docs).
+enum Fine {
+    /// `T_{φ_{r_k} ← φ_{s_l}}` of every child pair.
+    Both(Box<[[[f64; 3]; CHILDREN]; CHILDREN]>),
+    /// `T_{φ_{r_k} ← φ_S}` of every receiving child and the sending node (sender `φ`).
+    Receiver([[f64; 3]; CHILDREN]),
+    /// `T_{φ_R ← φ_{s_l}}` of the receiving node and every sending child (root-`φ`
+    /// receiver).
+    Sender([[f64; 3]; CHILDREN]),
+}
+
+/// The `φ→φ` values of `(receiving node, sending node)` for the children of the
+/// masked ones, or `None` if one is missing. `pair(k)` names the pair of child `k`.
+fn gather_fine(
+    links: &LinkSet,
+    mask: u16,
+    pair: impl Fn(usize) -> Option<(u32, u32, u32, u32)>,
+) -> Option<[[f64; 3]; CHILDREN]> {
+    let mut out = [[0.0; 3]; CHILDREN];
+    for (k, o) in out.iter_mut().enumerate() {
+        if mask & (1 << k) != 0 {
+            *o = links.phiphi.get(&pair(k)?)?.map(f64::from);
+        }
+    }
+    Some(out)
+}
+
+/// The finest complete set of finer values for link `l`: every child pair, else
+/// (sender `φ`) the receiving children alone, else (root-`φ` receiver) the sending
+/// children alone.
+fn fine_values(funcs: &Functions, links: &LinkSet, l: &Link) -> Option<Fine> {
+    let s = funcs.owner[l.sender as usize];
+    let stree = &funcs.trees[s.patch as usize];
+    let rtree = &funcs.trees[l.recv_patch as usize];
+    let skey = stree.keys[s.node as usize];
+    let rkey = rtree.keys[l.recv_node as usize];
+    if l.masks[0] == 0 {
+        return None;
+    }
+    let rchild = |k: usize| rtree.find(&rkey.child(k));
+    let schild = |k: usize| stree.find(&skey.child(k));
+    let both = (|| {
+        let mut phi = Box::new([[[0.0f64; 3]; CHILDREN]; CHILDREN]);
+        for (kr, row) in phi.iter_mut().enumerate() {
+            if l.masks[0] & (1 << kr) == 0 {
+                continue;
+            }
+            let nr = rchild(kr)?;
+            *row = gather_fine(links, l.masks[1], |ks| {
+                Some((l.recv_patch, nr, s.patch, schild(ks)?))
+            })?;
+        }
+        Some(Fine::Both(phi))
+    })();
+    both.or_else(|| {
+        (s.tau == 0)
+            .then(|| {
+                gather_fine(links, l.masks[0], |kr| {
+                    Some((l.recv_patch, rchild(kr)?, s.patch, s.node))
+                })
+            })
+            .flatten()
+            .map(Fine::Receiver)
+    })
+    .or_else(|| {
+        l.recv_phi
+            .then(|| {
+                gather_fine(links, l.masks[1], |ks| {
+                    Some((l.recv_patch, l.recv_node, s.patch, schild(ks)?))
+                })
+            })
+            .flatten()
+            .map(Fine::Sender)
+    })
+}
+
+/// The link's coefficients and `φ→φ` value (per channel) from finer values: the same
+/// Haar steps as [`crate::transport`].
+fn rebuilt_values(
+    haar: &HaarStep,
+    fine: &Fine,
+    tau_s: usize,
+    recv_phi: bool,
+) -> ([[f32; TYPES]; 3], [f32; 3]) {
+    let mut coef = [[0.0f32; TYPES]; 3];
+    let mut pp = [0.0f32; 3];
+    for c in 0..3 {
+        let sum = |t: usize, x: &[f64; CHILDREN]| (0..CHILDREN).map(|k| haar.at(t, k) * x[k]).sum();
+        // `v[k_r]`: the receiving child `k_r`'s coefficient from the sender; `w[k_r]`
+        // the same from the sending node's `φ`.
+        let (v, w): ([f64; CHILDREN], [f64; CHILDREN]) = match fine {
+            Fine::Both(phi) => (
+                std::array::from_fn(|kr| sum(tau_s, &phi[kr].map(|x| x[c]))),
+                std::array::from_fn(|kr| sum(0, &phi[kr].map(|x| x[c]))),
+            ),
+            Fine::Receiver(u) => {
+                let u = u.map(|x| x[c]);
+                (u, u)
+            }
+            Fine::Sender(u) => {
+                // Root-`φ` receiver: only the sender's Haar step is needed.
+                let u = u.map(|x| x[c]);
+                coef[c][0] = sum(tau_s, &u) as f32;
+                pp[c] = sum(0, &u) as f32;
+                continue;
+            }
+        };
+        if recv_phi {
+            coef[c][0] = sum(0, &v) as f32;
+        } else {
+            for t in 1..CHILDREN {
+                coef[c][t - 1] = sum(t, &v) as f32;
+            }
+        }
+        pp[c] = sum(0, &w) as f32;
+    }
+    (coef, pp)
+}
+
 /// The §5.4 rebuild (see the module docs); returns how many links were rebuilt.
 pub fn rebuild(funcs: &Functions, links: &mut LinkSet, haar: &HaarStep) -> usize {
     let mut order: Vec<usize> = (0..links.links.len()).collect();
@@ -641,63 +767,11 @@ pub fn rebuild(funcs: &Functions, links: &mut LinkSet, haar: &HaarStep) -> usize
     let mut rebuilt = 0;
     for i in order {
         let l = &links.links[i];
-        let s = funcs.owner[l.sender as usize];
-        let stree = &funcs.trees[s.patch as usize];
-        let rtree = &funcs.trees[l.recv_patch as usize];
-        let skey = stree.keys[s.node as usize];
-        let rkey = rtree.keys[l.recv_node as usize];
-        let mut phi = [[[0.0f64; 3]; CHILDREN]; CHILDREN];
-        let mut complete = true;
-        'outer: for kr in 0..CHILDREN {
-            if l.masks[0] & (1 << kr) == 0 {
-                continue;
-            }
-            let Some(nr) = rtree.find(&rkey.child(kr)) else {
-                complete = false;
-                break;
-            };
-            for ks in 0..CHILDREN {
-                if l.masks[1] & (1 << ks) == 0 {
-                    continue;
-                }
-                let Some(ns) = stree.find(&skey.child(ks)) else {
-                    complete = false;
-                    break 'outer;
-                };
-                match links.phiphi.get(&(l.recv_patch, nr, s.patch, ns)) {
-                    Some(v) => phi[kr][ks] = v.map(f64::from),
-                    None => {
-                        complete = false;
-                        break 'outer;
-                    }
-                }
-            }
-        }
-        if !complete || l.masks[0] == 0 {
+        let Some(fine) = fine_values(funcs, links, l) else {
             continue;
-        }
-        let tau_s = usize::from(s.tau);
-        let mut coef = [[0.0f32; TYPES]; 3];
-        let mut pp = [0.0f32; 3];
-        for c in 0..3 {
-            let mut v = [0.0; CHILDREN];
-            let mut w = [0.0; CHILDREN];
-            for kr in 0..CHILDREN {
-                for ks in 0..CHILDREN {
-                    v[kr] += haar.at(tau_s, ks) * phi[kr][ks][c];
-                    w[kr] += haar.at(0, ks) * phi[kr][ks][c];
-                }
-            }
-            if l.recv_phi {
-                coef[c][0] = (0..CHILDREN).map(|k| haar.at(0, k) * v[k]).sum::<f64>() as f32;
-            } else {
-                for t in 1..CHILDREN {
-                    coef[c][t - 1] =
-                        (0..CHILDREN).map(|k| haar.at(t, k) * v[k]).sum::<f64>() as f32;
-                }
-            }
-            pp[c] = (0..CHILDREN).map(|k| haar.at(0, k) * w[k]).sum::<f64>() as f32;
-        }
+        };
+        let s = funcs.owner[l.sender as usize];
+        let (coef, pp) = rebuilt_values(haar, &fine, usize::from(s.tau), l.recv_phi);
         let l = &mut links.links[i];
         l.coef = coef;
         l.phiphi = pp;
