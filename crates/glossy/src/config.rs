@@ -37,7 +37,8 @@ impl GatherMode {
 pub struct GlossyConfig {
     /// Ward normalisation (default [`WardVariant::Bounded`]).
     pub variant: WardVariant,
-    /// Hemisphere ↔ square map (default the paper's).
+    /// Hemisphere ↔ square map (default the cosine-weighted [`DirectionKind::Cosine`],
+    /// ours; the paper's is [`DirectionKind::Glossy`]).
     pub directions: DirectionKind,
     /// Linear solver (default Gauss–Seidel; standard decomposition only).
     pub solver: LinearSolver,
@@ -84,7 +85,7 @@ impl Default for GlossyConfig {
     fn default() -> Self {
         Self {
             variant: WardVariant::Bounded,
-            directions: DirectionKind::Glossy,
+            directions: DirectionKind::Cosine,
             solver: LinearSolver::GaussSeidel,
             decomposition: Decomposition::Standard,
             tolerance: 1e-6,

@@ -1,9 +1,9 @@
 //! Directions of radiance on a patch (Glossy §3.3): the hemisphere above the surface
-//! mapped onto the unit square `(u₃, u₄)` by `wavelux-param`'s [`GlossyHemisphere`]
-//! (the paper's gnomonic-like projection and radial stretch, default), the
-//! equal-area [`ConcentricHemisphere`] (a knob), or [`CosineHemisphere`] (ours, a
-//! knob: equal *projected* solid angle), in the patch's local shading frame (normal,
-//! tangent).
+//! mapped onto the unit square `(u₃, u₄)` by [`CosineHemisphere`] (ours, the default
+//! since session 27: equal *projected* solid angle), `wavelux-param`'s
+//! [`GlossyHemisphere`] (the paper's gnomonic-like projection and radial stretch; the
+//! reproductions name it) or the equal-area [`ConcentricHemisphere`], in the patch's
+//! local shading frame (normal, tangent).
 //!
 //! **Why the cosine-weighted map.** Coefficients are parameter-measure projections
 //! `ℓ = ∫ b L du` (see [`crate::basis`]), while the power a patch sends is
@@ -44,12 +44,14 @@ use crate::error::{GlossyError, dep};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize)]
 pub enum DirectionKind {
     /// Glossy §3.3: equidistant ("gnomonic") projection plus radial stretch.
-    #[default]
     Glossy,
     /// Shirley–Chiu concentric, equal-area (`J_ω = 2π`).
     Concentric,
     /// Cosine-weighted ([`CosineHemisphere`], ours): equal projected solid angle,
-    /// `cos θ J_ω = π`, so every projection keeps its cell's exitance.
+    /// `cos θ J_ω = π`, so every projection keeps its cell's exitance (default: on a
+    /// Ward Cornell box the exitance error is 1.8 % against the paper's map's 12.0 %
+    /// after 4 rounds, at the same cost; docs/architecture.md).
+    #[default]
     Cosine,
 }
 

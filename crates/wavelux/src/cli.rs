@@ -310,8 +310,9 @@ pub struct GlossyArgs {
     /// Glossy: Ward normalisation.
     #[arg(long, value_enum, default_value_t = crate::pipeline::glossy::WardVariantArg::Bounded)]
     pub ward_variant: crate::pipeline::glossy::WardVariantArg,
-    /// Glossy: hemisphere-to-square map of the directions.
-    #[arg(long, value_enum, default_value_t = crate::pipeline::glossy::DirectionsArg::Glossy)]
+    /// Glossy: hemisphere-to-square map of the directions (default the cosine-weighted
+    /// map, whose coarse nodes keep a glossy lobe's energy; `glossy` is the paper's).
+    #[arg(long, value_enum, default_value_t = crate::pipeline::glossy::DirectionsArg::Cosine)]
     pub directions: crate::pipeline::glossy::DirectionsArg,
     /// Glossy: refinement rounds (0: the V⁰ solution only).
     #[arg(long, default_value_t = 4)]

@@ -128,9 +128,9 @@ fn glossy_method_matches_the_closed_form_and_the_glossy_check() -> Result<()> {
     );
 
     // Ward receiver under a Lambertian emitter: modelled (no warning); against the
-    // glossy path tracer's check the mean exitance is 26 % off in V⁰ and 4.0 % after
-    // two rounds (measured, check noise 0.8 % at 20 000 samples): within 3 noise
-    // floors plus 3 %.
+    // glossy path tracer's check the mean exitance with the paper's direction map is
+    // 26 % off in V⁰ and 4.0 % after two rounds (measured, check noise 0.8 % at
+    // 20 000 samples): within 3 noise floors plus 3 %.
     two_patch(
         d,
         "ward.toml",
@@ -146,6 +146,8 @@ fn glossy_method_matches_the_closed_form_and_the_glossy_check() -> Result<()> {
             "4000",
             "--ward-variant",
             "original",
+            "--directions",
+            "glossy",
             "--gather",
             "4",
         ],
@@ -153,6 +155,7 @@ fn glossy_method_matches_the_closed_form_and_the_glossy_check() -> Result<()> {
         "ward",
     )?;
     assert_eq!(v["method"]["glossy"]["variant"], "original");
+    assert_eq!(v["method"]["glossy"]["directions"], "glossy");
     assert_eq!(v["method"]["glossy"]["gather_mode"], "root");
     assert!(
         v["warnings"].as_array().is_none_or(|w| w.is_empty()),
@@ -170,9 +173,9 @@ fn glossy_method_matches_the_closed_form_and_the_glossy_check() -> Result<()> {
     );
     assert!(d.join("two-patch.exr").exists() || v["outputs"]["exr"].is_string());
 
-    // The cosine-weighted direction map keeps the lobe's energy in V⁰ already
-    // (measured: 2.5 % against the paper's map's 25 %, check noise 1.8 %): the same
-    // bound without refinement.
+    // The cosine-weighted direction map (the default) keeps the lobe's energy in V⁰
+    // already (measured: 2.5 % against the paper's map's 25 %, check noise 1.8 %): the
+    // same bound without refinement.
     let v = glossy(
         "ward.toml",
         &[
@@ -182,8 +185,6 @@ fn glossy_method_matches_the_closed_form_and_the_glossy_check() -> Result<()> {
             "4000",
             "--ward-variant",
             "original",
-            "--directions",
-            "cosine",
         ],
         d,
         "ward-cosine",

@@ -50,7 +50,7 @@ pub enum DirectionsArg {
     Glossy,
     /// Equal-area concentric map.
     Concentric,
-    /// Cosine-weighted map (ours): every projection keeps its cell's exitance.
+    /// Cosine-weighted map (ours, default): every projection keeps its cell's exitance.
     Cosine,
 }
 
