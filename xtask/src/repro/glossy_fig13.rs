@@ -128,6 +128,33 @@ pub(super) fn error_patch2(sol: &GlossySolution, lobe: &WardLobe, k: usize) -> f
     (e / n).sqrt()
 }
 
+/// Relative L² error of the best level-`level` Haar expansion of patch 2's reference
+/// radiance (its averages over the `2^level × 2^level` direction cells), on the same
+/// `k × k` grid as [`error_patch2`] (`2^level` divides `k`): the floor of patch 2's
+/// error after `level` rounds, which add at most one level each.
+fn projection_error(lobe: &WardLobe, k: usize, level: u32) -> f64 {
+    let cells = 1usize << level;
+    let per = k / cells;
+    let value = |i: usize, j: usize| {
+        let u = DVec2::new((i as f64 + 0.5) / k as f64, (j as f64 + 0.5) / k as f64);
+        reference_l2(lobe, PAPER_MAP.direction(u))
+    };
+    let (mut e, mut n) = (0.0, 0.0);
+    for ci in 0..cells {
+        for cj in 0..cells {
+            let pts: Vec<f64> = (0..per * per)
+                .map(|p| value(ci * per + p % per, cj * per + p / per))
+                .collect();
+            let mean = pts.iter().sum::<f64>() / pts.len() as f64;
+            for v in pts {
+                e += (v - mean).powi(2);
+                n += v * v;
+            }
+        }
+    }
+    (e / n).sqrt()
+}
+
 /// Relative L² error of patch 3's radiance over a `k × k` grid of its support, either
 /// read from the expansion or by the final gather.
 pub(super) fn error_patch3(
@@ -264,13 +291,36 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         .comment(format!("errors per round: {errs:.4?}")),
     );
     let last = *errs.last().unwrap_or(&errs[0]);
-    r.rows.push(Row::new(
-        "patch 2: final / initial relative L² error",
-        None,
-        last / errs[0],
-        "",
-        Tolerance::AtMost(0.5),
-    ));
+    // Judgment, not derived: Fig. 13 shows convergence without numbers, so the row
+    // asks for at least a halving of the V⁰ error. What is reachable is bounded below
+    // by the best expansion at the level the rounds reach (the next row, computed from
+    // the reference alone): the bound asks the solver to be within a factor
+    // 0.5 · e₀ / e_P(R) of it.
+    let floor = projection_error(&lobe, k2, rounds as u32);
+    r.rows.push(
+        Row::new(
+            "patch 2: final / initial relative L² error",
+            None,
+            last / errs[0],
+            "",
+            Tolerance::AtMost(0.5),
+        )
+        .comment(format!(
+            "at least a halving (a judgment: the paper gives no numbers); the level-{rounds} \
+             projection's own error is {floor:.4} ({:.4} of the V⁰ error)",
+            floor / errs[0]
+        )),
+    );
+    r.rows.push(
+        Row::new(
+            format!("patch 2: error after the last round / level-{rounds} projection error"),
+            None,
+            last / floor,
+            "",
+            Tolerance::Info,
+        )
+        .comment("1 is the best a Haar expansion at that level can do on this grid"),
+    );
     r.rows.push(Row::new(
         "patch 2: relative L² error after the last round",
         None,

@@ -14,6 +14,38 @@ use std::f64::consts::TAU;
 use wavelux::glossy::{WardLobe, WardVariant};
 use wavelux::param::glam::DVec3;
 
+/// Tolerance of a registered albedo: half a unit in its last digit (issue 16 quotes
+/// three significant digits: `5e-4` below 1, `5e-3` for 1.13). Our quadrature's own
+/// error (the brute-force rows: ≤ 2e-6 in the last committed run) is far below it.
+fn registered_tolerance(value: f64) -> f64 {
+    if value >= 1.0 { 5e-3 } else { 5e-4 }
+}
+
+/// `|quadrature − brute force|` bound, registered in issue 16 ("match by quadrature
+/// to 1e-3"). It is loose on purpose: the brute-force midpoint rule's own error is
+/// `O(n_μ^{-2})` for smooth integrands and `O(n_μ^{-3/2})` for Original's `√cos θₒ`
+/// edge at the horizon, `≈ 7e-5 · f` at the quick run's `n_μ = 600`, so the bound
+/// catches a wrong quadrature (a lost lobe or a mis-cut horizon costs ≥ 1e-2), not
+/// rounding.
+const QUADRATURE_MATCH: f64 = 1e-3;
+
+/// Leading correction `a(θᵢ) − cos θᵢ ≈ α²(sin²θᵢ/(4 cos θᵢ) − 3 cos θᵢ)` of the
+/// Original variant's albedo for a sharp isotropic lobe (ours, derived for these
+/// rows). With `ωₒ` the mirror of `ωᵢ` about the half vector `h` and
+/// `p = tan θ_h (cos φ_h, sin φ_h)`, `dω_h = (1 + |p|²)^{-3/2} d²p` and
+/// `dωₒ = 4 (ωᵢ·h) dω_h`, so `a = (πα²)⁻¹ ∫ e^{−|p|²/α²} g(p) d²p` with
+/// `g = (ωᵢ·h) √(cos θₒ / cos θᵢ) (1 + |p|²)^{-3/2}`: a Gaussian average of variance
+/// `α²/2` per axis, `a = g(0) + (α²/4) ∇²g(0) + O(α⁴)`. With `ωᵢ = (s, 0, c)`, to
+/// second order `ωᵢ·h ≈ c + s p_x − c|p|²/2`, `cos θₒ ≈ c + 2 s p_x − 2c|p|²`, so
+/// `g ≈ c + 2 s p_x − 3c|p|² + s² p_x²/(2c)` and `∇²g(0) = −12c + s²/c`. At θᵢ = 0 it
+/// gives `1 − 3α²` (0.9997 at α = 0.01). The rows allow twice this term: the
+/// remainder is `O(α⁴)` (≈ 1e-8 · sec⁴θᵢ ≤ 1.1e-5 at 80°), far below it at the four
+/// angles used, which stay away from the term's zero at `tan²θᵢ = 12` (73.9°).
+fn sharp_albedo_correction(alpha: f64, theta_i: f64) -> f64 {
+    let (s, c) = theta_i.sin_cos();
+    alpha * alpha * (s * s / (4.0 * c) - 3.0 * c)
+}
+
 /// Brute-force albedo: midpoint rule with `n_mu × 4 n_mu` cells in `(cos θₒ, φₒ)`.
 fn brute_force(lobe: &WardLobe, theta_i: f64, n_mu: usize) -> f64 {
     let wi = DVec3::new(theta_i.sin(), 0.0, theta_i.cos());
@@ -70,8 +102,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         let lobe = WardLobe::new(v, 0.2, 0.2)?;
         let t = f64::to_radians(deg);
         let ours = lobe.albedo_at(t)?;
-        // The registered values carry three significant digits.
-        let tol = if value >= 1.0 { 5e-3 } else { 5e-4 };
+        let tol = registered_tolerance(value);
         r.rows.push(Row::new(
             format!("albedo, {}, α = 0.2, θᵢ = {deg}°", v.name()),
             Some(value),
@@ -89,23 +120,32 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
                 None,
                 (ours - bf).abs(),
                 "",
-                Tolerance::AtMost(1e-3),
+                Tolerance::AtMost(QUADRATURE_MATCH),
             )
             .comment(format!("brute force {bf:.5}")),
         );
     }
 
-    // α = 0.01, Original: albedo ≈ cos θᵢ.
-    let sharp = WardLobe::new(WardVariant::Original, 0.01, 0.01)?;
+    // α = 0.01, Original: albedo ≈ cos θᵢ, within twice the leading correction.
+    let alpha = 0.01;
+    let sharp = WardLobe::new(WardVariant::Original, alpha, alpha)?;
     for deg in [0.0, 30.0, 60.0, 80.0] {
         let t = f64::to_radians(deg);
-        r.rows.push(Row::new(
-            format!("albedo, original, α = 0.01, θᵢ = {deg}° (cos θᵢ)"),
-            Some(t.cos()),
-            sharp.albedo_at(t)?,
-            "",
-            Tolerance::Absolute(0.01),
-        ));
+        let lead = sharp_albedo_correction(alpha, t);
+        r.rows.push(
+            Row::new(
+                format!("albedo, original, α = 0.01, θᵢ = {deg}° (cos θᵢ)"),
+                Some(t.cos()),
+                sharp.albedo_at(t)?,
+                "",
+                Tolerance::Absolute(2.0 * lead.abs()),
+            )
+            .comment(format!(
+                "tolerance 2 × |α²(sin²θᵢ/(4 cos θᵢ) − 3 cos θᵢ)| = 2 × {:.3e} (derived in \
+                 glossy_ward.rs)",
+                lead.abs()
+            )),
+        );
     }
 
     // Only Bounded stays below 1.
