@@ -157,6 +157,8 @@ fn white_furnace_for_every_variant_and_roughness() {
                     singular_order: 2,
                     reverse: 64,
                 },
+                // The exact cell means below are in the paper's map.
+                directions: DirectionKind::Glossy,
                 ..GlossyConfig::default()
             };
             let mut sol = GlossySolution::new(&scene, "furnace", cfg).unwrap();
