@@ -164,17 +164,17 @@ impl WardLobe {
         ph / (4.0 * wo.dot(h))
     }
 
-    /// The half vector of sampling variables `u ∈ [0,1)²`: azimuth from `u[1]`,
-    /// `tan²θ_h = −ln(1 − u[0]) / (cos²φ/α_x² + sin²φ/α_y²)`.
+    /// The unit half vector of sampling variables `u ∈ [0,1)²`: azimuth `φ` with
+    /// `tan φ = (α_y/α_x) tan 2πu[1]`, `tan²θ_h = ℓ / (cos²φ/α_x² + sin²φ/α_y²)` with
+    /// `ℓ = −ln(1 − u[0])`. With `(c, s) = (cos, sin) 2πu[1]` and
+    /// `r² = α_x²c² + α_y²s²`, `(cos φ, sin φ) = (α_x c, α_y s)/r` and the denominator is
+    /// `1/r²`, so `h ∝ (α_x c √ℓ, α_y s √ℓ, 1)`: no inverse trigonometry. Its lobe
+    /// factor `exp(−tan²θ_h(…))` is `1 − u[0]`.
     #[inline]
     fn half_vector(&self, u: [f64; 2]) -> DVec3 {
         let (s, c) = (TAU * u[1]).sin_cos();
-        let phi = (self.alpha_y * s).atan2(self.alpha_x * c);
-        let (sp, cp) = phi.sin_cos();
-        let a = cp * cp / (self.alpha_x * self.alpha_x) + sp * sp / (self.alpha_y * self.alpha_y);
-        let t2 = -(1.0 - u[0]).ln() / a;
-        let tan = t2.sqrt();
-        DVec3::new(tan * cp, tan * sp, 1.0).normalize()
+        let l = (-(-u[0]).ln_1p()).sqrt();
+        DVec3::new(self.alpha_x * c * l, self.alpha_y * s * l, 1.0).normalize()
     }
 
     /// `w(ωᵢ, ωₒ) cos θₒ / p_ω(ωₒ)` for `ωₒ` reflected about the unit half vector `h`,
@@ -207,7 +207,10 @@ impl WardLobe {
             return None;
         }
         let wo = wo.normalize();
-        Some((wo, self.pdf(wi, wo), self.weight(wi, wo, h)))
+        // [`WardLobe::pdf`] at `wo`, its exponential known from the draw.
+        let hz = h.z;
+        let ph = (1.0 - u[0]) / (PI * self.alpha_x * self.alpha_y * hz * hz * hz);
+        Some((wo, ph / (4.0 * wo.dot(h)), self.weight(wi, wo, h)))
     }
 
     /// Directional albedo `a(ωᵢ) = ∫ w(ωᵢ, ωₒ) cos θₒ dωₒ` of the lobe (`ρ_s = 1`) by
@@ -622,6 +625,9 @@ mod tests {
             for _ in 0..1000 {
                 let wi = dir(rng.random::<f64>() * 1.5, rng.random::<f64>() * TAU);
                 if let Some((wo, pdf, w)) = l.sample(wi, [rng.random(), rng.random()]) {
+                    // The draw's pdf (its exponential from the draw) is `pdf()`'s.
+                    let p = l.pdf(wi, wo);
+                    assert!((pdf - p).abs() <= 1e-9 * p, "{pdf} {p}");
                     let direct = l.eval(wi, wo) * wo.z / pdf;
                     assert!(
                         (w - direct).abs() <= 1e-9 * direct.abs().max(1e-12),
