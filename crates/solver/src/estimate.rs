@@ -612,6 +612,51 @@ pub fn estimate_cached(
     cache: &mut EstimateCache,
 ) -> Result<ErrorEstimate, SolverError> {
     let t0 = Instant::now();
+    let (fine, recv_rule) = prepare(ctx, sol, opts, cache)?;
+    let h = &sol.system.h;
+    let patches = &sol.patches;
+    let pts: Vec<Vec<Point>> = h
+        .leaves
+        .par_iter()
+        .map(|&i| {
+            let key = h.keys[i as usize];
+            leaf_points(&patches[key.patch as usize], &key.region(), &recv_rule)
+        })
+        .collect();
+    let mut est = ErrorEstimate {
+        link_error: vec![0.0; h.link_count()],
+        leaf_error: vec![0.0; h.leaves.len()],
+        leaf_mean_error: vec![[0.0; 3]; h.leaves.len()],
+        leaf_reflected: vec![0.0; h.leaves.len()],
+        patch_error: vec![0.0; patches.len()],
+        patch_reflected: vec![0.0; patches.len()],
+        patch_area: vec![0.0; patches.len()],
+        patch_emitted: vec![0.0; patches.len()],
+        ..ErrorEstimate::default()
+    };
+    let hf = fine_irradiance(&fine, sol, &pts, &recv_rule, cache, &mut est);
+    let (resid, bh, proj) = residuals(sol, &pts, &hf);
+    let y = if opts.propagate {
+        propagated(sol, &proj)?
+    } else {
+        std::array::from_fn(|_| vec![0.0; sol.system.dim()])
+    };
+    accumulate(sol, &pts, (&resid, &bh, &y), &mut est);
+    let num: f64 = est.error_l1.iter().sum();
+    let den: f64 = est.reflected_l1.iter().sum();
+    est.relative_l1 = if den > 0.0 { num / den } else { 0.0 };
+    est.time = t0.elapsed();
+    Ok(est)
+}
+
+/// Checks the options and the solution, empties `cache` when its options differ, and
+/// returns the fine gather's context and the receiver rule.
+fn prepare<'a>(
+    ctx: &'a TransferCtx<'a>,
+    sol: &Solution,
+    opts: &EstimateOptions,
+    cache: &mut EstimateCache,
+) -> Result<(Fine<'a>, Rule), SolverError> {
     opts.validate()?;
     if sol.cdv_field().is_some() {
         return Err(SolverError::InvalidConfig {
@@ -620,11 +665,8 @@ pub fn estimate_cached(
             reason: "the a-posteriori estimate needs a tree-basis solution with links",
         });
     }
-    let sys = &sol.system;
-    let h = &sys.h;
     let basis = sol.basis();
     let n = basis.n();
-    let k = basis.k();
     if ctx.basis().n() != n {
         return Err(SolverError::InvalidConfig {
             field: "basis",
@@ -633,7 +675,7 @@ pub fn estimate_cached(
         });
     }
     let p = if opts.receiver_points == 0 {
-        (k + 1).max(3)
+        (basis.k() + 1).max(3)
     } else {
         opts.receiver_points
     };
@@ -642,7 +684,6 @@ pub fn estimate_cached(
     } else {
         opts.emitter_points
     };
-    let recv_rule = rule(p)?;
     let key = (
         p,
         q,
@@ -667,134 +708,187 @@ pub fn estimate_cached(
         vis_cells: opts.vis_cells,
         vis: ctx.visibility_mode() != Visibility::Off,
     };
+    Ok((fine, rule(p)?))
+}
+
+/// What the fine gather of [`fine_irradiance`] used of the cache, and its counters.
+#[derive(Default)]
+struct Gathered {
+    tally: Tally,
+    links: HashSet<(NodeKey, NodeKey)>,
+    leaves: HashSet<(NodeKey, NodeKey, NodeKey)>,
+}
+
+/// The fine irradiance `H_fine` per channel at every residual point (`pts` per leaf),
+/// patch by patch (bounded memory), from the cached or freshly computed moments of
+/// every link; fills the links' indicators and the work counters of `est` and keeps
+/// in `cache` only what this call used.
+fn fine_irradiance(
+    fine: &Fine<'_>,
+    sol: &Solution,
+    pts: &[Vec<Point>],
+    recv_rule: &Rule,
+    cache: &mut EstimateCache,
+    est: &mut ErrorEstimate,
+) -> Vec<Vec<[f64; 3]>> {
+    let h = &sol.system.h;
     let patches = &sol.patches;
-    let pts: Vec<Vec<Point>> = h
-        .leaves
-        .par_iter()
-        .map(|&i| {
-            let key = h.keys[i as usize];
-            leaf_points(&patches[key.patch as usize], &key.region(), &recv_rule)
-        })
-        .collect();
-    let mut est = ErrorEstimate {
-        link_error: vec![0.0; h.link_count()],
-        leaf_error: vec![0.0; h.leaves.len()],
-        leaf_mean_error: vec![[0.0; 3]; h.leaves.len()],
-        leaf_reflected: vec![0.0; h.leaves.len()],
-        patch_error: vec![0.0; patches.len()],
-        patch_reflected: vec![0.0; patches.len()],
-        patch_area: vec![0.0; patches.len()],
-        patch_emitted: vec![0.0; patches.len()],
-        ..ErrorEstimate::default()
-    };
-    // Fine irradiance at every residual point, patch by patch (bounded memory).
     let mut hf: Vec<Vec<[f64; 3]>> = pts.iter().map(|v| vec![[0.0; 3]; v.len()]).collect();
     let mut by_patch: Vec<Vec<u32>> = vec![Vec::new(); patches.len()];
     for (i, key) in h.keys.iter().enumerate() {
         by_patch[key.patch as usize].push(i as u32);
     }
-    let mut tally = Tally::default();
-    let mut used_links: HashSet<(NodeKey, NodeKey)> = HashSet::new();
-    let mut used_leaves: HashSet<(NodeKey, NodeKey, NodeKey)> = HashSet::new();
+    let mut used = Gathered::default();
     for (pi, nodes) in by_patch.iter().enumerate() {
-        if !patches[pi].reflects() {
-            continue;
+        if patches[pi].reflects() {
+            let links: Vec<usize> = nodes
+                .iter()
+                .flat_map(|&r| h.recv_offsets[r as usize]..h.recv_offsets[r as usize + 1])
+                .collect();
+            let detailed = gather_links(fine, sol, &links, pts, recv_rule, cache, est, &mut hf);
+            gather_detailed(fine, sol, &detailed, pts, cache, &mut used, &mut hf);
+            used.links.extend(links.iter().map(|&l| link_key(h, l)));
         }
-        let links: Vec<usize> = nodes
-            .iter()
-            .flat_map(|&r| h.recv_offsets[r as usize]..h.recv_offsets[r as usize + 1])
-            .collect();
-        let key_of = |l: usize| {
-            (
-                h.keys[h.link_receiver[l] as usize],
-                h.keys[h.link_emitter[l] as usize],
-            )
-        };
-        let missing: Vec<usize> = links
-            .iter()
-            .copied()
-            .filter(|&l| !cache.links.contains_key(&key_of(l)))
-            .collect();
-        est.reused_links += (links.len() - missing.len()) as u64;
-        let fresh: Vec<(Moments, Tally)> = missing
-            .par_iter()
-            .map(|&l| link_moments(&fine, sol, l, &recv_rule))
-            .collect();
-        for (&l, (m, t)) in missing.iter().zip(fresh) {
-            tally.add(&t);
-            est.unshadowed_links += u64::from(matches!(
-                h.link_seen[l],
-                LinkVisibility::Visible | LinkVisibility::Blocked
-            ));
-            cache.links.insert(key_of(l), m);
-        }
-        let mut detailed: Vec<(usize, usize)> = Vec::new();
-        for &l in &links {
-            let lk = key_of(l);
-            used_links.insert(lk);
-            let mom = &cache.links[&lk];
-            let (f, eta) = link_values(sol, l, mom, &recv_rule);
-            est.link_error[l] = eta;
-            est.detailed_links += u64::from(mom.detailed);
-            let r = h.link_receiver[l] as usize;
-            let rreg = h.keys[r].region();
-            for leaf in leaves_under(h, r) {
-                let li = h.leaf_of[leaf] as usize;
-                if leaf == r {
-                    for (acc, f) in hf[li].iter_mut().zip(&f) {
-                        (0..3).for_each(|c| acc[c] += f[c]);
-                    }
-                } else if mom.detailed {
-                    detailed.push((l, li));
-                } else {
-                    for (j, pt) in pts[li].iter().enumerate() {
-                        let v = interpolate(&recv_rule.0, &rreg, pt.s, pt.t, &f);
-                        (0..3).for_each(|c| hf[li][j][c] += v[c]);
-                    }
+    }
+    cache.links.retain(|k, _| used.links.contains(k));
+    cache.leaves.retain(|k, _| used.leaves.contains(k));
+    est.kernel_evals += used.tally.evals;
+    est.rays += used.tally.rays;
+    hf
+}
+
+/// The `(receiver, emitter)` key of link `l`.
+fn link_key(h: &crate::hierarchy::Hierarchy, l: usize) -> (NodeKey, NodeKey) {
+    (
+        h.keys[h.link_receiver[l] as usize],
+        h.keys[h.link_emitter[l] as usize],
+    )
+}
+
+/// The links' fine transport at their receivers' points (moments computed where the
+/// cache lacks them), added to `hf` at the leaves it covers: at the receiver's own
+/// points, interpolated at the points of the leaves under it, or (returned as
+/// `(link, leaf)` pairs) to be evaluated there in detail. Fills the links'
+/// indicators and counters in `est`.
+#[allow(clippy::too_many_arguments)]
+fn gather_links(
+    fine: &Fine<'_>,
+    sol: &Solution,
+    links: &[usize],
+    pts: &[Vec<Point>],
+    recv_rule: &Rule,
+    cache: &mut EstimateCache,
+    est: &mut ErrorEstimate,
+    hf: &mut [Vec<[f64; 3]>],
+) -> Vec<(usize, usize)> {
+    let h = &sol.system.h;
+    let missing: Vec<usize> = links
+        .iter()
+        .copied()
+        .filter(|&l| !cache.links.contains_key(&link_key(h, l)))
+        .collect();
+    est.reused_links += (links.len() - missing.len()) as u64;
+    let fresh: Vec<(Moments, Tally)> = missing
+        .par_iter()
+        .map(|&l| link_moments(fine, sol, l, recv_rule))
+        .collect();
+    for (&l, (m, t)) in missing.iter().zip(fresh) {
+        est.kernel_evals += t.evals;
+        est.rays += t.rays;
+        est.unshadowed_links += u64::from(matches!(
+            h.link_seen[l],
+            LinkVisibility::Visible | LinkVisibility::Blocked
+        ));
+        cache.links.insert(link_key(h, l), m);
+    }
+    let mut detailed: Vec<(usize, usize)> = Vec::new();
+    for &l in links {
+        let mom = &cache.links[&link_key(h, l)];
+        let (f, eta) = link_values(sol, l, mom, recv_rule);
+        est.link_error[l] = eta;
+        est.detailed_links += u64::from(mom.detailed);
+        let r = h.link_receiver[l] as usize;
+        let rreg = h.keys[r].region();
+        for leaf in leaves_under(h, r) {
+            let li = h.leaf_of[leaf] as usize;
+            if leaf == r {
+                for (acc, f) in hf[li].iter_mut().zip(&f) {
+                    (0..3).for_each(|c| acc[c] += f[c]);
+                }
+            } else if mom.detailed {
+                detailed.push((l, li));
+            } else {
+                for (j, pt) in pts[li].iter().enumerate() {
+                    let v = interpolate(&recv_rule.0, &rreg, pt.s, pt.t, &f);
+                    (0..3).for_each(|c| hf[li][j][c] += v[c]);
                 }
             }
         }
-        let leaf_key = |l: usize, li: usize| {
-            let (r, e) = key_of(l);
-            (r, e, h.keys[h.leaves[li] as usize])
-        };
-        let missing: Vec<(usize, usize)> = detailed
-            .iter()
-            .copied()
-            .filter(|&(l, li)| !cache.leaves.contains_key(&leaf_key(l, li)))
-            .collect();
-        let extra: Vec<(Vec<f64>, Tally)> = missing
-            .par_iter()
-            .map(|&(l, li)| {
-                let leaf = h.keys[h.leaves[li] as usize].region();
-                fine_at(&fine, sol, l, &leaf, &pts[li])
-            })
-            .collect();
-        for (&(l, li), (m, t)) in missing.iter().zip(extra) {
-            tally.add(&t);
-            cache.leaves.insert(leaf_key(l, li), m);
-        }
-        for &(l, li) in &detailed {
-            let k = leaf_key(l, li);
-            used_leaves.insert(k);
-            let v = transport(sol, l, &cache.leaves[&k], pts[li].len());
-            for (acc, f) in hf[li].iter_mut().zip(&v) {
-                (0..3).for_each(|c| acc[c] += f[c]);
-            }
+    }
+    detailed
+}
+
+/// The fine transport of the `(link, leaf)` pairs evaluated in detail, at the leaf's
+/// own points (moments computed where the cache lacks them), added to `hf`.
+fn gather_detailed(
+    fine: &Fine<'_>,
+    sol: &Solution,
+    detailed: &[(usize, usize)],
+    pts: &[Vec<Point>],
+    cache: &mut EstimateCache,
+    used: &mut Gathered,
+    hf: &mut [Vec<[f64; 3]>],
+) {
+    let h = &sol.system.h;
+    let leaf_key = |l: usize, li: usize| {
+        let (r, e) = link_key(h, l);
+        (r, e, h.keys[h.leaves[li] as usize])
+    };
+    let missing: Vec<(usize, usize)> = detailed
+        .iter()
+        .copied()
+        .filter(|&(l, li)| !cache.leaves.contains_key(&leaf_key(l, li)))
+        .collect();
+    let extra: Vec<(Vec<f64>, Tally)> = missing
+        .par_iter()
+        .map(|&(l, li)| {
+            let leaf = h.keys[h.leaves[li] as usize].region();
+            fine_at(fine, sol, l, &leaf, &pts[li])
+        })
+        .collect();
+    for (&(l, li), (m, t)) in missing.iter().zip(extra) {
+        used.tally.add(&t);
+        cache.leaves.insert(leaf_key(l, li), m);
+    }
+    for &(l, li) in detailed {
+        let k = leaf_key(l, li);
+        used.leaves.insert(k);
+        let v = transport(sol, l, &cache.leaves[&k], pts[li].len());
+        for (acc, f) in hf[li].iter_mut().zip(&v) {
+            (0..3).for_each(|c| acc[c] += f[c]);
         }
     }
-    cache.links.retain(|k, _| used_links.contains(k));
-    cache.leaves.retain(|k, _| used_leaves.contains(k));
-    est.kernel_evals = tally.evals;
-    est.rays = tally.rays;
-    // Residual r = E + ρ H_fine − B_h at every point; its projection P r.
+}
+
+/// Per leaf and point, the residual `r = E + ρ H_fine − B_h` and `B_h` per channel,
+/// and the residual's projection `P r` onto the leaf bases per channel.
+#[allow(clippy::type_complexity)]
+fn residuals(
+    sol: &Solution,
+    pts: &[Vec<Point>],
+    hf: &[Vec<[f64; 3]>],
+) -> (Vec<Vec<[f64; 3]>>, Vec<Vec<[f64; 3]>>, [Vec<f64>; 3]) {
+    let sys = &sol.system;
+    let h = &sys.h;
+    let basis = sol.basis();
+    let n = basis.n();
     let mut resid: Vec<Vec<[f64; 3]>> = Vec::with_capacity(h.leaves.len());
     let mut bh: Vec<Vec<[f64; 3]>> = Vec::with_capacity(h.leaves.len());
     let mut proj: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; sys.dim()]);
     let mut psi = [0.0; 16];
     for (l, &leaf) in h.leaves.iter().enumerate() {
         let key = h.keys[leaf as usize];
-        let patch = &patches[key.patch as usize];
+        let patch = &sol.patches[key.patch as usize];
         let reg = key.region();
         let inv = 1.0 / sys.node_area[leaf as usize].sqrt();
         let mut rl = Vec::with_capacity(pts[l].len());
@@ -825,38 +919,63 @@ pub fn estimate_cached(
         resid.push(rl);
         bh.push(bl);
     }
-    // Transported part y = (I − K_h)⁻¹ K_h P r per channel.
+    (resid, bh, proj)
+}
+
+/// The transported part `y = (I − K_h)⁻¹ K_h P r` per channel (one channel solved
+/// when the scene and `P r` are grey).
+fn propagated(sol: &Solution, proj: &[Vec<f64>; 3]) -> Result<[Vec<f64>; 3], SolverError> {
+    let sys = &sol.system;
     let mut y: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; sys.dim()]);
-    if opts.propagate && sys.dim() > 0 {
-        let grey = patches.iter().all(|p| {
-            p.reflectance.iter().all(|&r| r == p.reflectance[0])
-                && p.emission.iter().all(|&e| e == p.emission[0])
-        }) && proj[1] == proj[0]
-            && proj[2] == proj[0];
-        let channels = if grey { 1 } else { 3 };
-        for c in 0..channels {
-            let mut kr = vec![0.0; sys.dim()];
-            sys.apply_k(c, &proj[c], &mut kr);
-            let (x, _) = linear_solve(
-                &sys.channel(c),
-                &kr,
-                LinearMethod::Gmres { restart: 30 },
-                60,
-                1e-4,
-                None,
-                None,
-                &|b: &[f64], x: &mut [f64]| sys.gauss_seidel_sweep(c, b, x),
-            )?;
-            y[c] = x;
-        }
-        if grey {
-            y[1] = y[0].clone();
-            y[2] = y[0].clone();
-        }
+    if sys.dim() == 0 {
+        return Ok(y);
     }
+    let grey = sol.patches.iter().all(|p| {
+        p.reflectance.iter().all(|&r| r == p.reflectance[0])
+            && p.emission.iter().all(|&e| e == p.emission[0])
+    }) && proj[1] == proj[0]
+        && proj[2] == proj[0];
+    let channels = if grey { 1 } else { 3 };
+    for c in 0..channels {
+        let mut kr = vec![0.0; sys.dim()];
+        sys.apply_k(c, &proj[c], &mut kr);
+        let (x, _) = linear_solve(
+            &sys.channel(c),
+            &kr,
+            LinearMethod::Gmres { restart: 30 },
+            60,
+            1e-4,
+            None,
+            None,
+            &|b: &[f64], x: &mut [f64]| sys.gauss_seidel_sweep(c, b, x),
+        )?;
+        y[c] = x;
+    }
+    if grey {
+        y[1] = y[0].clone();
+        y[2] = y[0].clone();
+    }
+    Ok(y)
+}
+
+/// Adds `e = r + y` at every real residual point to the norms of `est` (scene,
+/// leaves, patches) with the normaliser `|B_h − E|`; `parts` is `(r, B_h, y)`.
+#[allow(clippy::type_complexity)]
+fn accumulate(
+    sol: &Solution,
+    pts: &[Vec<Point>],
+    parts: (&[Vec<[f64; 3]>], &[Vec<[f64; 3]>], &[Vec<f64>; 3]),
+    est: &mut ErrorEstimate,
+) {
+    let (resid, bh, y) = parts;
+    let sys = &sol.system;
+    let h = &sys.h;
+    let basis = sol.basis();
+    let n = basis.n();
+    let mut psi = [0.0; 16];
     for (l, &leaf) in h.leaves.iter().enumerate() {
         let key = h.keys[leaf as usize];
-        let patch = &patches[key.patch as usize];
+        let patch = &sol.patches[key.patch as usize];
         let reg = key.region();
         let inv = 1.0 / sys.node_area[leaf as usize].sqrt();
         for (j, pt) in pts[l].iter().enumerate() {
@@ -872,12 +991,13 @@ pub fn estimate_cached(
                 let yv: f64 = (0..n).map(|a| y[c][l * n + a] * psi[a]).sum::<f64>() * inv;
                 let r = resid[l][j][c];
                 let e = r + yv;
+                let d = (bh[l][j][c] - patch.emission[c]).abs();
                 est.error_l1[c] += pt.wr * e.abs();
                 est.residual_l1[c] += pt.wr * r.abs();
-                est.reflected_l1[c] += pt.wr * (bh[l][j][c] - patch.emission[c]).abs();
+                est.reflected_l1[c] += pt.wr * d;
                 est.leaf_error[l] += pt.wr * e.abs();
                 est.leaf_mean_error[l][c] += pt.wr * e;
-                est.leaf_reflected[l] += pt.wr * (bh[l][j][c] - patch.emission[c]).abs();
+                est.leaf_reflected[l] += pt.wr * d;
             }
             est.points += 1;
             est.patch_area[key.patch as usize] += pt.wr;
@@ -886,11 +1006,6 @@ pub fn estimate_cached(
         est.patch_error[key.patch as usize] += est.leaf_error[l];
         est.patch_reflected[key.patch as usize] += est.leaf_reflected[l];
     }
-    let num: f64 = est.error_l1.iter().sum();
-    let den: f64 = est.reflected_l1.iter().sum();
-    est.relative_l1 = if den > 0.0 { num / den } else { 0.0 };
-    est.time = t0.elapsed();
-    Ok(est)
 }
 
 /// The link's emitter coefficients per channel and `T B_E` per channel.
