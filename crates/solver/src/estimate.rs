@@ -10,10 +10,11 @@
 //! with a `q × q` Gauss rule on pieces of `E` split until each piece is well separated
 //! from the point (`dist ≥ near · radius`). Visibility: none where the link's
 //! transfer block saw every ray visible (or no transport where it saw every ray
-//! blocked); on partly visible links one shadow ray per point pair (the default; on
-//! the Cornell box ~120 M of the default solve's ~160 M rays) or, with
-//! `EstimateOptions::vis_cells` `N ≥ 1`, one ray per receiver point and cell of an
-//! `N × N` grid on the emitter node, shared by the samples in that cell; and none
+//! blocked); on partly visible links one ray per receiver point and cell of an
+//! `N × N` grid on the emitter node, shared by the samples in that cell
+//! (`EstimateOptions::vis_cells`, by default `N = 3`), or with `vis_cells` 0 one
+//! shadow ray per point pair (on the Cornell box ~120 M of the default solve's ~160 M
+//! rays, against ~62 M with 3 × 3 cells); and none
 //! where no blocker can meet the shaft between the points'
 //! cell and the piece ([`crate::shaft`]: those rays would all be visible). The
 //! links of the hierarchy partition every receiver–emitter pair once, so their sum is
@@ -84,17 +85,16 @@ pub struct EstimateOptions {
     pub vis_cells: usize,
 }
 
-/// The default [`EstimateOptions::vis_cells`]: `0`, one ray per point and emitter
-/// sample (the rule of every earlier session). Measured on the built-in Cornell box
-/// (default `--target-error 2%`, release, one thread, texel L1 against the 32 768-walk
-/// reference, docs/performance.md), cells 1 / 2 / 3 / traced: estimate rays 6.5 /
-/// 27.3 / 62.0 / 119.8 M, texel L1 0.948 / 1.010 / 1.051 / 1.097 %, CPU 59.2 / 63.4
-/// / 68.4 / 73.8 s. One ray per point and link is not honest everywhere: on Ziegler's
-/// occluded scene (M2, level 1) it estimates 18.8 % against a measured 7.98 %
-/// (`tests/estimate.rs`), because a coarse emitter node is then seen or hidden whole.
-/// `3` passes the estimate tests; it becomes the default once the tests and quick
-/// reproductions of every crate that runs the target loop have been rerun with it.
-pub const DEFAULT_VIS_CELLS: usize = 0;
+/// The default [`EstimateOptions::vis_cells`]: `3`, one ray per receiver point and
+/// cell of a 3 × 3 grid on the link's emitter node. Measured on the built-in Cornell
+/// box (default `--target-error 2%`, release, one thread, texel L1 against the
+/// 32 768-walk reference, docs/performance.md), session 26, cells 1 / 2 / 3 / traced
+/// (`0`): estimate rays 6.5 / 27.3 / 62.0 / 119.8 M, texel L1 0.948 / 1.010 / 1.051
+/// / 1.097 %, CPU 59.2 / 63.4 / 68.4 / 73.8 s. One ray per point and link is not
+/// honest everywhere: on Ziegler's occluded scene (M2, level 1) it estimates 18.8 %
+/// against a measured 7.98 % (`tests/estimate.rs`), because a coarse emitter node is
+/// then seen or hidden whole; 3 × 3 cells stay within the factor 2 there (6.85 %).
+pub const DEFAULT_VIS_CELLS: usize = 3;
 
 impl Default for EstimateOptions {
     fn default() -> Self {

@@ -180,9 +180,9 @@ pub struct SolveArgs {
     /// estimate's fine gather on partly visible links: `N` (1..=8) shoots, per
     /// residual point, one ray to the centre of each of N × N cells of the link's
     /// emitter, shared by the emitter samples in that cell; `traced` one ray per
-    /// point and emitter sample. On the built-in Cornell box `3` traces half the
-    /// estimate's rays of `traced` for 7 % less CPU at a slightly lower texel error
-    /// (docs/performance.md) [default: traced].
+    /// point and emitter sample (the rule before session 27). On the built-in Cornell
+    /// box `3` traces half the estimate's rays of `traced` at a slightly lower texel
+    /// error (docs/performance.md) [default: 3].
     #[arg(long, value_parser = parse_estimate_visibility)]
     pub estimate_visibility: Option<usize>,
     /// Refinement threshold (see --oracle for its unit); with `gather`, selects one
