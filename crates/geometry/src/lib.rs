@@ -45,7 +45,7 @@ pub use tessellate::{
     Grid, PrimitiveMesh, TessellationError, TessellationOptions, TriangleMesh, tessellate,
     tessellate_all,
 };
-pub use trim::{Edge2, TrimLoop, TrimRegion};
+pub use trim::{Edge2, RegionFault, TrimLoop, TrimRegion};
 
 /// Errors of geometric construction and queries.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -65,6 +65,10 @@ pub enum GeometryError {
         /// What failed.
         message: String,
     },
+    /// Trim loops that do not bound a proper region (the payload names the loop or pair
+    /// at fault and how).
+    #[error("improper trim region: {0}")]
+    Region(trim::RegionFault),
     /// An index was out of range.
     #[error("index {index} out of range (len {len})")]
     OutOfRange {

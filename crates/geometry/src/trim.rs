@@ -332,14 +332,31 @@ pub struct TrimRegion {
 }
 
 impl TrimRegion {
-    /// Builds the region and its slab decomposition (`O(n log n)` events, `O(n)` pieces per slab).
+    /// Builds the region and its slab decomposition (`O(n log n)` events, `O(n)` pieces per slab)
+    /// and checks that the loops bound a proper region: every cell's winding number is 0
+    /// or 1 and no two boundary pieces cross (outer loops counter-clockwise, holes
+    /// clockwise inside an outer loop and apart, no loop crossing itself or another).
+    /// Loops may touch: cells and crossings thinner than `1e-12 ×` the loops' bounding
+    /// box diagonal are ignored.
     ///
     /// # Errors
-    /// No loops.
+    /// No loops ([`GeometryError::Degenerate`]); loops that do not bound a proper region
+    /// ([`GeometryError::Region`], naming the loop or pair at fault).
     pub fn new(loops: Vec<TrimLoop>) -> Result<TrimRegion, GeometryError> {
         if loops.is_empty() {
             return Err(GeometryError::Degenerate("trim region without loops"));
         }
+        let region = TrimRegion::build(loops);
+        let tol = region.tolerance();
+        if region.is_proper(tol) {
+            Ok(region)
+        } else {
+            Err(GeometryError::Region(region_fault(&region.loops, tol)))
+        }
+    }
+
+    /// The slab decomposition of `loops` (non-empty), unchecked.
+    fn build(loops: Vec<TrimLoop>) -> TrimRegion {
         let mut lo = DVec2::splat(f64::INFINITY);
         let mut hi = DVec2::splat(f64::NEG_INFINITY);
         // Monotone sub-edges: (y_start, y_end, piece)
@@ -448,12 +465,42 @@ impl TrimRegion {
                 }
             })
             .collect();
-        Ok(TrimRegion {
+        TrimRegion {
             loops,
             ys,
             slabs,
             lo,
             hi,
+        }
+    }
+
+    /// Thinness below which cells and crossings are ignored: `1e-12 ×` the bounding box
+    /// diagonal.
+    fn tolerance(&self) -> f64 {
+        let d = (self.hi - self.lo).length();
+        if d.is_finite() { 1e-12 * d } else { 0.0 }
+    }
+
+    /// True if every cell's winding number is 0 or 1 and no two adjacent pieces of a
+    /// slab cross inside it (the slab cuts lie at vertices and arc extremes only, so a
+    /// crossing between two cuts is invisible to [`TrimRegion::winding_bounds`]; any
+    /// transversal crossing of two boundary curves makes three winding numbers meet).
+    fn is_proper(&self, tol: f64) -> bool {
+        let (lo, hi) = self.winding_bounds(tol);
+        lo >= 0 && hi <= 1 && !self.has_crossing(tol)
+    }
+
+    /// True if two pieces adjacent at mid-height of some slab (taller than `tol`) swap
+    /// order inside it by more than `tol`. Checking adjacent pairs suffices: the first
+    /// crossing above or below mid-height is between neighbours.
+    fn has_crossing(&self, tol: f64) -> bool {
+        self.slabs.iter().enumerate().any(|(k, slab)| {
+            let (y0, y1) = (self.ys[k], self.ys[k + 1]);
+            y1 - y0 > tol
+                && slab
+                    .pieces
+                    .windows(2)
+                    .any(|w| pieces_cross(&w[0], &w[1], y0, y1, tol))
         })
     }
 
@@ -584,11 +631,12 @@ impl TrimRegion {
     /// cells thinner than `tol` (slab height, or gap width at mid-height), where
     /// coincident boundary pieces make the order, and so the winding, arbitrary.
     ///
-    /// A region is a proper point set bounded by its loops (outer loops
-    /// counter-clockwise, holes clockwise, inside their outer loop and disjoint, no loop
-    /// crossing itself or another) exactly when this is `(0, 1)`: a hole outside its
-    /// outer loop or two overlapping holes give `−1`, a loop winding twice or two
-    /// overlapping outer loops `2`.
+    /// Cells are sampled at mid-height of each slab, and the slabs are cut at vertices
+    /// and arc extremes only, so two pieces crossing between two cuts can hide a cell
+    /// of winding `−1` or `2`; [`TrimRegion::new`] also checks for such crossings, and
+    /// every region it returns has bounds within `(0, 1)`. A hole outside its outer loop
+    /// or two overlapping holes give `−1`, a loop winding twice or two overlapping
+    /// outer loops `2`.
     pub fn winding_bounds(&self, tol: f64) -> (i32, i32) {
         let (mut lo, mut hi) = (0, 0);
         for (k, slab) in self.slabs.iter().enumerate() {
@@ -626,4 +674,212 @@ fn snap_extreme(y: f64, cy: f64, r: f64) -> f64 {
     } else {
         y
     }
+}
+
+/// How trim loops fail to bound a proper region ([`TrimRegion::new`]). Indices are
+/// positions in the loops given to [`TrimRegion::new`]; a hole is a clockwise loop
+/// (negative signed area), an outer loop a counter-clockwise one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RegionFault {
+    /// The loop crosses or overlaps itself (alone, it winds other than once around some
+    /// point).
+    SelfCrossing {
+        /// The loop.
+        index: usize,
+    },
+    /// The hole lies outside every outer loop, or crosses one.
+    HoleOutside {
+        /// The hole.
+        index: usize,
+    },
+    /// Two loops of the same kind overlap or cross (two holes, or two outer loops).
+    Overlap {
+        /// The first loop.
+        a: usize,
+        /// The second loop.
+        b: usize,
+    },
+    /// The loops overlap in a way no single loop or pair explains (or there are more
+    /// than [`MAX_DIAGNOSED_LOOPS`] loops, beyond which pairs are not searched).
+    Unresolved,
+}
+
+/// Most loops whose pairs [`TrimRegion::new`] searches to name an improper region's fault.
+pub const MAX_DIAGNOSED_LOOPS: usize = 64;
+
+impl std::fmt::Display for RegionFault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            RegionFault::SelfCrossing { index } => {
+                write!(f, "trim loop {index} crosses or overlaps itself")
+            }
+            RegionFault::HoleOutside { index } => write!(
+                f,
+                "hole (trim loop {index}) is not inside an outer loop (it lies outside or crosses it)"
+            ),
+            RegionFault::Overlap { a, b } => write!(f, "trim loops {a} and {b} overlap"),
+            RegionFault::Unresolved => write!(f, "trim loops overlap"),
+        }
+    }
+}
+
+/// Names the fault of loops that do not bound a proper region: a loop that is not
+/// proper alone, then a pair whose boundaries cross, then a loop lying in the wrong cell
+/// of the others (a hole needs winding 1 around it, an outer loop 0).
+fn region_fault(loops: &[TrimLoop], tol: f64) -> RegionFault {
+    let ccw = |l: &TrimLoop| {
+        if l.signed_area() < 0.0 {
+            l.reversed()
+        } else {
+            l.clone()
+        }
+    };
+    let is_hole = |i: usize| loops[i].signed_area() < 0.0;
+    for (index, l) in loops.iter().enumerate() {
+        if !TrimRegion::build(vec![ccw(l)]).is_proper(tol) {
+            return RegionFault::SelfCrossing { index };
+        }
+    }
+    if loops.len() > MAX_DIAGNOSED_LOOPS {
+        return RegionFault::Unresolved;
+    }
+    let blame = |a: usize, b: usize| match (is_hole(a), is_hole(b)) {
+        (true, false) => RegionFault::HoleOutside { index: a },
+        (false, true) => RegionFault::HoleOutside { index: b },
+        _ => RegionFault::Overlap { a, b },
+    };
+    for a in 0..loops.len() {
+        for b in a + 1..loops.len() {
+            if partly_overlap(ccw(&loops[a]), ccw(&loops[b]), tol) {
+                return blame(a, b);
+            }
+        }
+    }
+    for i in 0..loops.len() {
+        let rest: Vec<TrimLoop> = (0..loops.len())
+            .filter(|&j| j != i)
+            .map(|j| loops[j].clone())
+            .collect();
+        let rest = (!rest.is_empty()).then(|| TrimRegion::build(rest));
+        let around = loop_sample_winding(&loops[i], |p| rest.as_ref().map_or(0, |r| r.winding(p)));
+        if around == i32::from(is_hole(i)) {
+            continue;
+        }
+        // The loop lies in the wrong cell: inside a loop of its own kind, or (a hole)
+        // outside every outer loop.
+        let inside = (0..loops.len()).find(|&j| {
+            j != i
+                && is_hole(j) == is_hole(i)
+                && loop_sample_winding(&loops[i], |p| loops[j].winding_brute(p)) != 0
+        });
+        return match inside {
+            Some(j) => RegionFault::Overlap {
+                a: i.min(j),
+                b: i.max(j),
+            },
+            None if is_hole(i) => RegionFault::HoleOutside { index: i },
+            None => RegionFault::Unresolved,
+        };
+    }
+    RegionFault::Unresolved
+}
+
+/// True if the interiors of two counter-clockwise loops, each proper alone, overlap
+/// without one containing the other: their boundaries cross inside a slab, or the two
+/// together wind twice somewhere while `a` minus `b` and `b` minus `a` are both
+/// non-empty (taken with `b` reversed, windings `1` and `−1` both occur).
+fn partly_overlap(a: TrimLoop, b: TrimLoop, tol: f64) -> bool {
+    let both = TrimRegion::build(vec![a.clone(), b.clone()]);
+    if both.has_crossing(tol) {
+        return true;
+    }
+    if both.winding_bounds(tol).1 < 2 {
+        return false;
+    }
+    let (lo, hi) = TrimRegion::build(vec![a, b.reversed()]).winding_bounds(tol);
+    lo < 0 && hi > 0
+}
+
+/// The most frequent value of `winding` at one point inside each edge of `l` (so that a
+/// loop touching another along some edges is still placed by its other edges).
+fn loop_sample_winding(l: &TrimLoop, winding: impl Fn(DVec2) -> i32) -> i32 {
+    let mut values: Vec<i32> = l.edges.iter().map(|e| winding(e.point(0.37))).collect();
+    values.sort_unstable();
+    let mut best = (0, values.first().copied().unwrap_or(0));
+    let mut k = 0;
+    while k < values.len() {
+        let run = values[k..].iter().take_while(|&&v| v == values[k]).count();
+        if run > best.0 {
+            best = (run, values[k]);
+        }
+        k += run;
+    }
+    best.1
+}
+
+/// A piece as a whole curve: the line `x = p + k y`, or the circle `(cx, cy, r)`.
+enum Curve {
+    Line { p: f64, k: f64 },
+    Circle { c: DVec2, r: f64 },
+}
+
+fn curve(piece: &Piece) -> Curve {
+    match *piece {
+        Piece::Line { x0, y0, dxdy } => Curve::Line {
+            p: x0 - y0 * dxdy,
+            k: dxdy,
+        },
+        Piece::Arc { cx, cy, r, .. } => Curve::Circle {
+            c: DVec2::new(cx, cy),
+            r,
+        },
+    }
+}
+
+/// Ordinates where the line `x = p + k y` meets the circle (NaN where it does not).
+fn line_circle(p: f64, k: f64, c: DVec2, r: f64) -> [f64; 2] {
+    // (p + k y − cx)² + (y − cy)² = r².
+    let u = p - c.x;
+    let a = 1.0 + k * k;
+    let b = 2.0 * (k * u - c.y);
+    let cc = u * u + c.y * c.y - r * r;
+    let s = (b * b - 4.0 * a * cc).max(0.0).sqrt();
+    [(-b - s) / (2.0 * a), (-b + s) / (2.0 * a)]
+}
+
+/// Ordinates where the two pieces' whole curves meet (at most two; NaN for none, as for
+/// parallel lines or concentric circles).
+fn meeting_ordinates(a: &Piece, b: &Piece) -> [f64; 2] {
+    match (curve(a), curve(b)) {
+        (Curve::Line { p: pa, k: ka }, Curve::Line { p: pb, k: kb }) => {
+            [(pb - pa) / (ka - kb), f64::NAN]
+        }
+        (Curve::Line { p, k }, Curve::Circle { c, r })
+        | (Curve::Circle { c, r }, Curve::Line { p, k }) => line_circle(p, k, c, r),
+        (Curve::Circle { c: c1, r: r1 }, Curve::Circle { c: c2, r: r2 }) => {
+            // Radical line: 2 x dx + 2 y dy = r1² − r2² + |c2|² − |c1|².
+            let d = c2 - c1;
+            let rhs = r1 * r1 - r2 * r2 + c2.length_squared() - c1.length_squared();
+            if d.x != 0.0 {
+                line_circle(rhs / (2.0 * d.x), -d.y / d.x, c1, r1)
+            } else {
+                [rhs / (2.0 * d.y), f64::NAN]
+            }
+        }
+    }
+}
+
+/// True if `right` (to the right of `left` at mid-slab) passes left of it by more than
+/// `tol` somewhere in `(y0, y1)`: the gap is checked between consecutive ordinates
+/// where the two curves meet, where its sign is constant.
+fn pieces_cross(left: &Piece, right: &Piece, y0: f64, y1: f64, tol: f64) -> bool {
+    let [m0, m1] = meeting_ordinates(left, right);
+    // Non-finite and outside ordinates are clamped onto the slab's ends.
+    let inside = |y: f64| if y > y0 && y < y1 { y } else { y0 };
+    let mut cuts = [y0, inside(m0), inside(m1), y1];
+    cuts.sort_by(f64::total_cmp);
+    cuts.windows(2).any(|w| {
+        let y = 0.5 * (w[0] + w[1]);
+        w[1] > w[0] && right.x_at(y) - left.x_at(y) < -tol
+    })
 }

@@ -112,19 +112,14 @@ impl Cumulative {
     /// The `t` with `C(t) = c`, for `c` in `[0, total]` (clamped).
     pub fn inverse(&self, c: f64, rho: impl Fn(f64) -> f64) -> f64 {
         let total = self.total();
-        if c.is_nan() {
+        // A non-finite table (a density that was NaN or infinite somewhere) has no inverse.
+        if c.is_nan() || !total.is_finite() {
             return f64::NAN;
         }
         let c = c.clamp(0.0, total);
         // Last breakpoint <= c.
         let n = self.breaks.len() - 1;
-        let k = match self
-            .breaks
-            .binary_search_by(|b| b.partial_cmp(&c).expect("finite"))
-        {
-            Ok(i) => i.min(n - 1),
-            Err(i) => i.saturating_sub(1).min(n - 1),
-        };
+        let k = segment_at(&self.breaks, c, n);
         let a = self.start(k);
         let b = if k + 1 == n { self.t1 } else { a + self.h };
         let (ca, cb) = (self.breaks[k], self.breaks[k + 1]);
@@ -247,18 +242,13 @@ impl SmoothCumulative {
 
     /// The `t` with `C(t) = c`, for `c` in `[0, total]` (clamped).
     pub fn inverse(&self, c: f64) -> f64 {
-        if c.is_nan() {
+        // A non-finite table (a density that was NaN or infinite somewhere) has no inverse.
+        if c.is_nan() || !self.total().is_finite() {
             return f64::NAN;
         }
         let c = c.clamp(0.0, self.total());
         let n = self.coeffs.len();
-        let k = match self
-            .breaks
-            .binary_search_by(|b| b.partial_cmp(&c).expect("finite"))
-        {
-            Ok(i) => i.min(n - 1),
-            Err(i) => i.saturating_sub(1).min(n - 1),
-        };
+        let k = segment_at(&self.breaks, c, n);
         let a = self.t0 + k as f64 * self.h;
         let b = a + self.h;
         let (ca, cb) = (self.breaks[k], self.breaks[k + 1]);
@@ -421,6 +411,16 @@ pub(crate) fn closest_on_curve(
     t
 }
 
+/// Index of the last of the first `n` segments whose start `breaks[k] <= c` (0 below
+/// the first, `n − 1` at or past the last); `breaks` ascending. `total_cmp` orders
+/// every value, so no input panics.
+fn segment_at(breaks: &[f64], c: f64, n: usize) -> usize {
+    match breaks.binary_search_by(|b| b.total_cmp(&c)) {
+        Ok(i) => i.min(n - 1),
+        Err(i) => i.saturating_sub(1).min(n - 1),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -459,6 +459,31 @@ mod tests {
             let t = 1.5 * i as f64 / 20.0;
             assert!((s.value(t).0 - t.sin()).abs() < 1e-14);
             assert!((s.value(t).1 - t.cos()).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn non_finite_densities_give_nan_inverses_not_panics() {
+        // A density that is NaN on part of the range poisons the table from there on;
+        // the inverse says so with NaN instead of panicking in its breakpoint search.
+        let nan_tail = |t: f64| if t > 0.5 { f64::NAN } else { 1.0 };
+        let c = Cumulative::new(0.0, 1.0, 8, 4, nan_tail);
+        assert!(c.total().is_nan());
+        assert!(c.inverse(0.25, nan_tail).is_nan());
+        let s = SmoothCumulative::new(0.0, 1.0, 8, 4, nan_tail);
+        assert!(s.inverse(0.25).is_nan());
+        let inf = |t: f64| if t > 0.5 { f64::INFINITY } else { 1.0 };
+        assert!(
+            Cumulative::new(0.0, 1.0, 8, 4, inf)
+                .inverse(0.25, inf)
+                .is_nan()
+        );
+        // Finite tables still invert: ρ = 1 on [0, 1] is the identity.
+        let one = |_: f64| 1.0;
+        let c = Cumulative::new(0.0, 1.0, 8, 4, one);
+        for k in 0..=10 {
+            let t = k as f64 / 10.0;
+            assert!((c.inverse(t, one) - t).abs() < 1e-14, "{t}");
         }
     }
 

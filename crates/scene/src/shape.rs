@@ -970,34 +970,50 @@ impl Loop {
     }
 }
 
+/// The loops as a checked `wavelux-geometry` trim region (outer counter-clockwise,
+/// holes clockwise). Loops that do not bound a proper region give
+/// [`SceneError::Malformed`] naming the loop; `which` prefixes the loop names
+/// (`"trim "` for trims).
 fn trim_region(
     outer: &Loop,
     holes: &[Loop],
     file: &str,
     element: &str,
+    which: &str,
 ) -> Result<wavelux_geometry::TrimRegion, SceneError> {
+    use wavelux_geometry::{GeometryError, RegionFault};
     let mut loops = vec![outer.to_trim_loop(true, file, element)?];
     for h in holes {
         loops.push(h.to_trim_loop(false, file, element)?);
     }
-    wavelux_geometry::TrimRegion::new(loops).map_err(|e| gerr(file, element, e))
-}
-
-/// The region's winding numbers are all 0 or 1 (cells thinner than `1e-12 ×` the loops'
-/// extent ignored; see [`wavelux_geometry::TrimRegion::winding_bounds`]).
-fn is_simple(
-    loops: &[(&Loop, bool)],
-    file: &str,
-    element: &str,
-    size: f64,
-) -> Result<bool, SceneError> {
-    let mut trims = Vec::with_capacity(loops.len());
-    for (l, ccw) in loops {
-        trims.push(l.to_trim_loop(*ccw, file, element)?);
-    }
-    let region = wavelux_geometry::TrimRegion::new(trims).map_err(|e| gerr(file, element, e))?;
-    let (lo, hi) = region.winding_bounds(1e-12 * size);
-    Ok(lo >= 0 && hi <= 1)
+    // Region loop 0 is the outer loop, loop k + 1 is hole k.
+    let name = |i: usize| match i {
+        0 => "outer loop".to_string(),
+        i => format!("hole {}", i - 1),
+    };
+    wavelux_geometry::TrimRegion::new(loops).map_err(|e| match e {
+        GeometryError::Region(fault) => SceneError::Malformed {
+            file: file.into(),
+            element: element.into(),
+            what: match fault {
+                RegionFault::SelfCrossing { index } => {
+                    format!("{which}{} crosses or overlaps itself", name(index))
+                }
+                RegionFault::HoleOutside { index } => format!(
+                    "{which}{} is not inside the outer loop (it lies outside or crosses it)",
+                    name(index)
+                ),
+                RegionFault::Overlap { a, b } if a > 0 => {
+                    format!("{which}holes {} and {} overlap", a - 1, b - 1)
+                }
+                RegionFault::Overlap { b, .. } => {
+                    format!("{which}outer loop and {} overlap", name(b))
+                }
+                RegionFault::Unresolved => format!("{which}holes overlap each other"),
+            },
+        },
+        other => gerr(file, element, other),
+    })
 }
 
 /// Checks an outer loop and its holes (see [`PolygonShape::check_region`]); `which`
@@ -1009,53 +1025,7 @@ fn check_loops(
     element: &str,
     which: &str,
 ) -> Result<(), SceneError> {
-    let mut lo = DVec2::splat(f64::INFINITY);
-    let mut hi = DVec2::splat(f64::NEG_INFINITY);
-    for e in &outer.edges {
-        lo = lo.min(e.start());
-        hi = hi.max(e.start());
-        if let LoopEdge::Arc { center, start, .. } = e {
-            let r = (*start - *center).length();
-            lo = lo.min(*center - DVec2::splat(r));
-            hi = hi.max(*center + DVec2::splat(r));
-        }
-    }
-    let size = (hi - lo).length();
-    let mut all = vec![(outer, true)];
-    all.extend(holes.iter().map(|h| (h, false)));
-    if is_simple(&all, file, element, size)? {
-        return Ok(());
-    }
-    let bad = |what: String| SceneError::Malformed {
-        file: file.into(),
-        element: element.into(),
-        what,
-    };
-    if !is_simple(&[(outer, true)], file, element, size)? {
-        return Err(bad(format!("{which}outer loop crosses or overlaps itself")));
-    }
-    for (i, h) in holes.iter().enumerate() {
-        if !is_simple(&[(h, true)], file, element, size)? {
-            return Err(bad(format!("{which}hole {i} crosses or overlaps itself")));
-        }
-    }
-    for (i, h) in holes.iter().enumerate() {
-        if !is_simple(&[(outer, true), (h, false)], file, element, size)? {
-            return Err(bad(format!(
-                "{which}hole {i} is not inside the outer loop (it lies outside or crosses it)"
-            )));
-        }
-    }
-    if holes.len() <= 64 {
-        for i in 0..holes.len() {
-            for j in i + 1..holes.len() {
-                if !is_simple(&[(&holes[i], true), (&holes[j], true)], file, element, size)? {
-                    return Err(bad(format!("{which}holes {i} and {j} overlap")));
-                }
-            }
-        }
-    }
-    Err(bad(format!("{which}holes overlap each other")))
+    trim_region(outer, holes, file, element, which).map(|_| ())
 }
 
 impl Shape {
@@ -1099,7 +1069,7 @@ impl Shape {
             Self::Polygon(p) => {
                 let frame =
                     g::PlaneFrame::from_axes(p.frame.origin, p.frame.u, p.frame.v).map_err(err)?;
-                let region = trim_region(&p.outer, &p.holes, file, element)?;
+                let region = trim_region(&p.outer, &p.holes, file, element, "")?;
                 vec![g::Primitive::Polygon(Box::new(
                     g::ComplexPolygon::new(frame, region).map_err(err)?,
                 ))]
@@ -1113,7 +1083,7 @@ impl Shape {
             Self::Patch(p) => {
                 let surface = p.surface.parametrization(file, element)?;
                 let trim = match &p.trim {
-                    Some(r) => Some(trim_region(&r.outer, &r.holes, file, element)?),
+                    Some(r) => Some(trim_region(&r.outer, &r.holes, file, element, "trim ")?),
                     None => None,
                 };
                 vec![g::Primitive::Trimmed(Box::new(
