@@ -253,88 +253,159 @@ const TOP: [f64; 2] = [6.0, 12.0];
 pub fn atrium(detail: f64) -> Scene {
     let d = detail.max(0.05);
     let mut s = Scene::new("atrium");
-    let stone = s.add_material(Material::lambertian(
-        "stone",
-        Rgb::new(0.62, 0.56, 0.46),
-        Rgb::BLACK,
-    ));
-    let floor_m = s.add_material(Material::lambertian(
-        "floor",
-        Rgb::new(0.5, 0.48, 0.42),
-        Rgb::BLACK,
-    ));
-    let urn_m = s.add_material(Material::lambertian(
-        "terracotta",
-        Rgb::new(0.55, 0.32, 0.2),
-        Rgb::BLACK,
-    ));
-    let drape_m = [
-        s.add_material(Material::lambertian(
-            "drape-red",
-            Rgb::new(0.6, 0.08, 0.06),
-            Rgb::BLACK,
-        )),
-        s.add_material(Material::lambertian(
-            "drape-green",
-            Rgb::new(0.1, 0.45, 0.12),
-            Rgb::BLACK,
-        )),
-        s.add_material(Material::lambertian(
-            "drape-blue",
-            Rgb::new(0.08, 0.15, 0.55),
-            Rgb::BLACK,
-        )),
-    ];
+    let m = AtriumMaterials::add(&mut s);
     let one = Sidedness::OneSided;
-    let grid = 4.0 * d; // cells per metre on large planes
-    let arcs = scaled(24.0, d);
-    let around = scaled(24.0, d);
-
     // Floor (the whole footprint, galleries included).
-    let mut m = Mesh::default();
-    m.rect(
+    let mut floor = Mesh::default();
+    floor.rect(
         DVec3::ZERO,
         DVec3::Z * WID,
         DVec3::X * LEN,
         scaled(WID * 4.0, d),
         scaled(LEN * 4.0, d),
     );
-    add(&mut s, "floor", m, floor_m, one);
+    add(&mut s, "floor", floor, m.floor, one);
+    for side in [Side::South, Side::North] {
+        let tag = side.tag();
+        add(
+            &mut s,
+            &format!("{tag}-gallery"),
+            side.gallery(d),
+            m.stone,
+            one,
+        );
+        add(
+            &mut s,
+            &format!("{tag}-arcade"),
+            side.arcade(d),
+            m.stone,
+            one,
+        );
+        add(
+            &mut s,
+            &format!("{tag}-columns"),
+            side.columns(d),
+            m.stone,
+            one,
+        );
+        side.drapes(&mut s, d, m.drape);
+    }
+    atrium_end_walls(&mut s, d, m.stone);
+    atrium_urns(&mut s, d, m.urn);
+    if let Some(cam) = Camera::look_at(
+        "end",
+        DVec3::new(1.2, 1.7, WID / 2.0),
+        DVec3::new(LEN, 3.5, WID / 2.0),
+        DVec3::Y,
+        60f64.to_radians(),
+        None,
+    ) {
+        s.cameras.push(cam);
+    }
+    s.lights.push(Light::spot(
+        "spot",
+        DVec3::new(20.0, 10.5, 6.0),
+        DVec3::new(-12.0, -10.5, -1.5),
+        30f64.to_radians(),
+        40f64.to_radians(),
+        Rgb::grey(400.0),
+    ));
+    s
+}
 
-    for side in 0..2 {
-        let tag = ["south", "north"][side];
-        // Mirror z → WID − z for the north side (the tri helper keeps normals right).
-        let mz = |p: DVec3| {
-            if side == 0 {
-                p
-            } else {
-                DVec3::new(p.x, p.y, WID - p.z)
-            }
+/// The atrium's materials.
+struct AtriumMaterials {
+    stone: MaterialId,
+    floor: MaterialId,
+    urn: MaterialId,
+    drape: [MaterialId; 3],
+}
+
+impl AtriumMaterials {
+    fn add(s: &mut Scene) -> AtriumMaterials {
+        let mut lambert = |name: &str, r: f64, g: f64, b: f64| {
+            s.add_material(Material::lambertian(name, Rgb::new(r, g, b), Rgb::BLACK))
         };
-        let nz = |v: DVec3| {
-            if side == 0 {
-                v
-            } else {
-                DVec3::new(v.x, v.y, -v.z)
-            }
-        };
+        let stone = lambert("stone", 0.62, 0.56, 0.46);
+        let floor = lambert("floor", 0.5, 0.48, 0.42);
+        let urn = lambert("terracotta", 0.55, 0.32, 0.2);
+        let drape = [
+            lambert("drape-red", 0.6, 0.08, 0.06),
+            lambert("drape-green", 0.1, 0.45, 0.12),
+            lambert("drape-blue", 0.08, 0.15, 0.55),
+        ];
+        AtriumMaterials {
+            stone,
+            floor,
+            urn,
+            drape,
+        }
+    }
+}
+
+/// One long side of the atrium: the south side is built at `z ≥ 0` near `z = 0`, the
+/// north side is its mirror image `z → WID − z` (normals mirrored with it).
+#[derive(Clone, Copy, PartialEq)]
+enum Side {
+    South,
+    North,
+}
+
+impl Side {
+    fn tag(self) -> &'static str {
+        match self {
+            Side::South => "south",
+            Side::North => "north",
+        }
+    }
+
+    /// Index of the side (0 south, 1 north), which picks the drapes' colours.
+    fn index(self) -> usize {
+        usize::from(self == Side::North)
+    }
+
+    /// A point of the south side mapped to this side.
+    fn p(self, p: DVec3) -> DVec3 {
+        match self {
+            Side::South => p,
+            Side::North => DVec3::new(p.x, p.y, WID - p.z),
+        }
+    }
+
+    /// A direction of the south side mapped to this side.
+    fn v(self, v: DVec3) -> DVec3 {
+        match self {
+            Side::South => v,
+            Side::North => DVec3::new(v.x, v.y, -v.z),
+        }
+    }
+
+    /// Adds `b`'s triangles mapped to this side, with their winding's normal (mirrored
+    /// on the north side, so that the normals stay outward).
+    fn add_mapped(self, out: &mut Mesh, b: &Mesh) {
+        for t in &b.tris {
+            let [a, bb, c] = t.map(|i| self.p(b.pos[i as usize]));
+            let n = (bb - a).cross(c - a);
+            out.tri(a, bb, c, if self == Side::South { n } else { -n });
+        }
+    }
+
+    /// Back wall (facing the courtyard), gallery slab (upper floor, top and
+    /// underside) and the ceiling under the roof.
+    fn gallery(self, d: f64) -> Mesh {
         let mut gal = Mesh::default();
-        // Back wall (facing the courtyard).
-        let back = |m: &mut Mesh| {
-            let (o, eu, ev) = (mz(DVec3::ZERO), DVec3::X * LEN, DVec3::Y * HGT);
-            let want = nz(DVec3::Z);
-            let (nu, nv) = (scaled(LEN * grid / d, d), scaled(HGT * grid / d, d));
-            for i in 0..nu {
-                for j in 0..nv {
-                    let p = |a: usize, b: usize| {
-                        o + eu * (a as f64 / nu as f64) + ev * (b as f64 / nv as f64)
-                    };
-                    m.quad(p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1), want);
-                }
+        let grid = 4.0 * d; // cells per metre on large planes
+        let (o, eu, ev) = (self.p(DVec3::ZERO), DVec3::X * LEN, DVec3::Y * HGT);
+        let want = self.v(DVec3::Z);
+        let (nu, nv) = (scaled(LEN * grid / d, d), scaled(HGT * grid / d, d));
+        for i in 0..nu {
+            for j in 0..nv {
+                let p = |a: usize, b: usize| {
+                    o + eu * (a as f64 / nu as f64) + ev * (b as f64 / nv as f64)
+                };
+                gal.quad(p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1), want);
             }
-        };
-        back(&mut gal);
-        // Gallery slab (upper floor, top and underside), ceiling under the roof.
+        }
         let inner = DEPTH - THICK;
         let (nx, nzc) = (scaled(LEN * 2.0, d), scaled(inner * 2.0, d));
         for (y, up) in [(STOREY[1], true), (STOREY[1] - 0.2, false), (HGT, false)] {
@@ -342,7 +413,7 @@ pub fn atrium(detail: f64) -> Scene {
             for i in 0..nx {
                 for j in 0..nzc {
                     let p = |a: usize, b: usize| {
-                        mz(DVec3::new(
+                        self.p(DVec3::new(
                             LEN * a as f64 / nx as f64,
                             y,
                             inner * b as f64 / nzc as f64,
@@ -352,9 +423,13 @@ pub fn atrium(detail: f64) -> Scene {
                 }
             }
         }
-        add(&mut s, &format!("{tag}-gallery"), gal, stone, one);
+        gal
+    }
 
-        // Arcade walls: per storey, per bay, front and back spandrels and soffits.
+    /// Arcade walls: per storey, per bay, front and back spandrels and soffits, and half
+    /// piers against the end walls below the spring.
+    fn arcade(self, d: f64) -> Mesh {
+        let arcs = scaled(24.0, d);
         let mut wall = Mesh::default();
         for st in 0..2 {
             let (ys, yt) = (SPRING[st], TOP[st]);
@@ -363,17 +438,18 @@ pub fn atrium(detail: f64) -> Scene {
                 let x0 = bay as f64 * BAY;
                 let xc = x0 + BAY / 2.0;
                 for (zf, want) in [(DEPTH, DVec3::Z), (DEPTH - THICK, -DVec3::Z)] {
-                    let map = |q: DVec2| mz(DVec3::new(q.x, q.y, zf));
-                    wall.spandrel(&map, x0, x0 + BAY, ys, yt, xc, rad, arcs, nz(want));
+                    let map = |q: DVec2| self.p(DVec3::new(q.x, q.y, zf));
+                    wall.spandrel(&map, x0, x0 + BAY, ys, yt, xc, rad, arcs, self.v(want));
                 }
                 // Soffit: the half-cylinder under the arch, facing its axis.
                 for k in 0..arcs {
                     let t0 = std::f64::consts::PI * k as f64 / arcs as f64;
                     let t1 = std::f64::consts::PI * (k + 1) as f64 / arcs as f64;
-                    let p =
-                        |t: f64, z: f64| mz(DVec3::new(xc + rad * t.cos(), ys + rad * t.sin(), z));
+                    let p = |t: f64, z: f64| {
+                        self.p(DVec3::new(xc + rad * t.cos(), ys + rad * t.sin(), z))
+                    };
                     let tm = 0.5 * (t0 + t1);
-                    let inward = nz(DVec3::new(-tm.cos(), -tm.sin(), 0.0));
+                    let inward = self.v(DVec3::new(-tm.cos(), -tm.sin(), 0.0));
                     wall.quad(
                         p(t0, DEPTH),
                         p(t1, DEPTH),
@@ -383,23 +459,21 @@ pub fn atrium(detail: f64) -> Scene {
                     );
                 }
             }
-            // Half piers against the end walls below the spring.
             for (xa, xb) in [(0.0, PIER), (LEN - PIER, LEN)] {
-                let lo = DVec3::new(xa, STOREY[st], DEPTH - THICK);
-                let hi = DVec3::new(xb, ys, DEPTH);
                 let mut b = Mesh::default();
-                b.cuboid(lo, hi);
-                for t in b.tris {
-                    let [a, bb, c] = t.map(|i| mz(b.pos[i as usize]));
-                    let n = (bb - a).cross(c - a);
-                    let n = if side == 0 { n } else { -n };
-                    wall.tri(a, bb, c, n);
-                }
+                b.cuboid(
+                    DVec3::new(xa, STOREY[st], DEPTH - THICK),
+                    DVec3::new(xb, ys, DEPTH),
+                );
+                self.add_mapped(&mut wall, &b);
             }
         }
-        add(&mut s, &format!("{tag}-arcade"), wall, stone, one);
+        wall
+    }
 
-        // Columns: plinth, lathe shaft, capital, abacus.
+    /// Columns: plinth, lathe shaft (base moulding, entasis, flaring capital), abacus.
+    fn columns(self, d: f64) -> Mesh {
+        let around = scaled(24.0, d);
         let mut cols = Mesh::default();
         let zc = DEPTH - THICK / 2.0;
         for st in 0..2 {
@@ -407,7 +481,7 @@ pub fn atrium(detail: f64) -> Scene {
             let h = ys - y0;
             for k in 1..8 {
                 let x = k as f64 * BAY;
-                let c = mz(DVec3::new(x, y0, zc));
+                let c = self.p(DVec3::new(x, y0, zc));
                 let mut b = Mesh::default();
                 b.cuboid(
                     DVec3::new(x - 0.4, y0, zc - 0.4),
@@ -417,12 +491,7 @@ pub fn atrium(detail: f64) -> Scene {
                     DVec3::new(x - 0.42, ys - 0.18, zc - 0.36),
                     DVec3::new(x + 0.42, ys, zc + 0.36),
                 );
-                for t in b.tris {
-                    let [a, bb, cc] = t.map(|i| mz(b.pos[i as usize]));
-                    let n = (bb - a).cross(cc - a);
-                    cols.tri(a, bb, cc, if side == 0 { n } else { -n });
-                }
-                // Base moulding, entasis shaft and a flaring capital (lathe profile).
+                self.add_mapped(&mut cols, &b);
                 let mut prof = vec![(0.34, 0.3), (0.36, 0.38), (0.3, 0.46)];
                 let rings = scaled(8.0, d);
                 for i in 0..=rings {
@@ -440,9 +509,11 @@ pub fn atrium(detail: f64) -> Scene {
                 cols.lathe(c, &prof, around);
             }
         }
-        add(&mut s, &format!("{tag}-columns"), cols, stone, one);
+        cols
+    }
 
-        // Three drapes in front of the upper arcade, two-sided, waved.
+    /// Three two-sided waved drapes in front of the upper arcade.
+    fn drapes(self, s: &mut Scene, d: f64, colours: [MaterialId; 3]) {
         for (k, bay) in [1usize, 3, 6].iter().enumerate() {
             let xc = (*bay as f64 + 0.5) * BAY;
             let z0 = DEPTH + 0.35;
@@ -455,20 +526,18 @@ pub fn atrium(detail: f64) -> Scene {
                 let z = z0
                     + 0.12 * (u * std::f64::consts::TAU * 2.0).sin() * (0.3 + v)
                     + 0.05 * (v * std::f64::consts::TAU * 1.5).sin();
-                mz(DVec3::new(x, y, z))
+                self.p(DVec3::new(x, y, z))
             });
-            let mat = drape_m[(k + side) % 3];
-            add(
-                &mut s,
-                &format!("{tag}-drape-{k}"),
-                dr,
-                mat,
-                Sidedness::TwoSided { back: mat },
-            );
+            let mat = colours[(k + self.index()) % 3];
+            let name = format!("{}-drape-{k}", self.tag());
+            add(s, &name, dr, mat, Sidedness::TwoSided { back: mat });
         }
     }
+}
 
-    // End walls with arched doors (door 2 m wide, springing at 3 m).
+/// End walls with arched doors (door 2 m wide, springing at 3 m).
+fn atrium_end_walls(s: &mut Scene, d: f64, stone: MaterialId) {
+    let arcs = scaled(24.0, d);
     for (end, x) in [("west", 0.0), ("east", LEN)] {
         let want = if x == 0.0 { DVec3::X } else { -DVec3::X };
         let mut m = Mesh::default();
@@ -490,10 +559,13 @@ pub fn atrium(detail: f64) -> Scene {
             }
         }
         m.spandrel(&map, zd0, zd1, ys, HGT, 0.5 * (zd0 + zd1), rad, arcs, want);
-        add(&mut s, &format!("{end}-wall"), m, stone, one);
+        add(s, &format!("{end}-wall"), m, stone, Sidedness::OneSided);
     }
+}
 
-    // Four urns.
+/// Four lathe urns in the courtyard.
+fn atrium_urns(s: &mut Scene, d: f64, terracotta: MaterialId) {
+    let around = scaled(24.0, d);
     for (k, (x, z)) in [(4.5, 4.5), (19.5, 4.5), (4.5, 7.5), (19.5, 7.5)]
         .iter()
         .enumerate()
@@ -510,28 +582,8 @@ pub fn atrium(detail: f64) -> Scene {
         }
         prof.push((0.0, 1.3));
         m.lathe(DVec3::new(*x, 0.0, *z), &prof, around);
-        add(&mut s, &format!("urn-{k}"), m, urn_m, one);
+        add(s, &format!("urn-{k}"), m, terracotta, Sidedness::OneSided);
     }
-
-    if let Some(cam) = Camera::look_at(
-        "end",
-        DVec3::new(1.2, 1.7, WID / 2.0),
-        DVec3::new(LEN, 3.5, WID / 2.0),
-        DVec3::Y,
-        60f64.to_radians(),
-        None,
-    ) {
-        s.cameras.push(cam);
-    }
-    s.lights.push(Light::spot(
-        "spot",
-        DVec3::new(20.0, 10.5, 6.0),
-        DVec3::new(-12.0, -10.5, -1.5),
-        30f64.to_radians(),
-        40f64.to_radians(),
-        Rgb::grey(400.0),
-    ));
-    s
 }
 
 // ---------------------------------------------------------------------------------
