@@ -62,6 +62,10 @@ struct JsonReport<'a> {
     title: &'a str,
     quick: bool,
     wall_seconds: f64,
+    /// The build profile of the xtask that ran ([`BUILD_PROFILE`]).
+    build: &'a str,
+    /// The commit of the source tree that ran ([`source_commit`]).
+    commit: &'a str,
     rows: &'a [Row],
 }
 
@@ -130,6 +134,7 @@ fn run_with(all: &[Reproduction], args: &Args, root: &Path) -> anyhow::Result<()
         .filter(|r| args.only.is_empty() || args.only.iter().any(|o| o == r.id))
         .collect();
 
+    let commit = source_commit(root);
     let mut failed = Vec::new();
     let mut open = 0usize;
     for r in selected {
@@ -149,8 +154,10 @@ fn run_with(all: &[Reproduction], args: &Args, root: &Path) -> anyhow::Result<()
         let start = Instant::now();
         let mut report = (r.run)(&ctx).with_context(|| format!("reproduction {} failed", r.id))?;
         let wall = start.elapsed().as_secs_f64();
-        // Times depend on the build: every report says which one produced it.
+        // Times depend on the build, and every number on the code: every report says
+        // which build and which commit produced it.
         report.param("xtask build", BUILD_PROFILE);
+        report.param("commit", &commit);
 
         let json = JsonReport {
             id: r.id,
@@ -158,6 +165,8 @@ fn run_with(all: &[Reproduction], args: &Args, root: &Path) -> anyhow::Result<()
             title: r.title,
             quick: args.quick,
             wall_seconds: wall,
+            build: BUILD_PROFILE,
+            commit: &commit,
             rows: &report.rows,
         };
         let json_text = serde_json::to_string_pretty(&json)?;
@@ -396,7 +405,55 @@ impl IndexRow {
 #[derive(serde::Deserialize)]
 struct IndexEntry {
     wall_seconds: f64,
+    /// Absent in reports written before session 27.
+    #[serde(default)]
+    build: Option<String>,
+    /// Absent in reports written before session 27.
+    #[serde(default)]
+    commit: Option<String>,
     rows: Vec<IndexRow>,
+}
+
+impl IndexEntry {
+    /// "commit, build" for the index (`release` or `dev`), or "not recorded".
+    fn provenance(&self) -> String {
+        match (&self.commit, &self.build) {
+            (Some(c), Some(b)) => {
+                let b = if b == "release" { "release" } else { "dev" };
+                format!("{c}, {b}")
+            }
+            _ => "not recorded".into(),
+        }
+    }
+}
+
+/// The source tree's commit as `git` describes it: the short hash of `HEAD`, plus
+/// "+ uncommitted changes" when tracked files differ from it (an honest report can then
+/// be traced to code, or is marked as not quite any commit); "unknown" without git.
+fn source_commit(root: &Path) -> String {
+    let git = |args: &[&str]| {
+        std::process::Command::new("git")
+            .arg("-C")
+            .arg(root)
+            .args(args)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+    };
+    describe_commit(
+        git(&["rev-parse", "--short=10", "HEAD"]).as_deref(),
+        git(&["status", "--porcelain", "--untracked-files=no"]).map(|s| !s.is_empty()),
+    )
+}
+
+fn describe_commit(head: Option<&str>, dirty: Option<bool>) -> String {
+    match (head, dirty) {
+        (Some(h), Some(false)) => h.to_string(),
+        (Some(h), Some(true)) => format!("{h} + uncommitted changes"),
+        (Some(h), None) => format!("{h} (status unknown)"),
+        (None, _) => "unknown (no git)".into(),
+    }
 }
 
 /// The build that runs the reproductions, as the reports state it.
@@ -416,7 +473,9 @@ fn write_index(all: &[Reproduction], doc_dir: &Path, open: &OpenFailures) -> any
          pass). A failure on the open-failure list (`open-failures.md`, each row with its \
          issue and measured reason) is still a failure, counted and marked as listed; an \
          unlisted failure fails the command.\n\n\
-         | id | source | pass | known deviation | fail | info | wall time | report |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n",
+         The commit and build of each report are those of the run that wrote it; a report \
+         older than the code it describes is stale until rerun.\n\n\
+         | id | source | pass | known deviation | fail | info | wall time | commit, build | report |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
     );
     let mut details = String::new();
     let mut totals = [0usize; 4];
@@ -452,8 +511,17 @@ fn write_index(all: &[Reproduction], doc_dir: &Path, open: &OpenFailures) -> any
                 };
                 let _ = writeln!(
                     s,
-                    "| `{}` | {} | {} | {} | {} | {} | {:.1} s | [{}.md]({}.md) |",
-                    r.id, r.source, c[0], c[1], fail_cell, c[3], e.wall_seconds, r.id, r.id
+                    "| `{}` | {} | {} | {} | {} | {} | {:.1} s | {} | [{}.md]({}.md) |",
+                    r.id,
+                    r.source,
+                    c[0],
+                    c[1],
+                    fail_cell,
+                    c[3],
+                    e.wall_seconds,
+                    e.provenance(),
+                    r.id,
+                    r.id
                 );
                 let _ = writeln!(details, "\n## `{}`\n", r.id);
                 for row in &e.rows {
@@ -473,7 +541,7 @@ fn write_index(all: &[Reproduction], doc_dir: &Path, open: &OpenFailures) -> any
             None => {
                 let _ = writeln!(
                     s,
-                    "| `{}` | {} | — | — | — | — | not run | — |",
+                    "| `{}` | {} | — | — | — | — | not run | — | — |",
                     r.id, r.source
                 );
             }
@@ -481,7 +549,7 @@ fn write_index(all: &[Reproduction], doc_dir: &Path, open: &OpenFailures) -> any
     }
     let _ = writeln!(
         s,
-        "| **total** | | {} | {} | {} ({total_listed} listed) | {} | | |",
+        "| **total** | | {} | {} | {} ({total_listed} listed) | {} | | | |",
         totals[0], totals[1], totals[2], totals[3]
     );
     s.push_str(&details);
@@ -612,6 +680,45 @@ mod tests {
         assert!(index.contains("| `outside` | test | — |"), "{index}");
         let md = std::fs::read_to_string(dir.path().join("docs/reproductions/inside.md")).unwrap();
         assert!(md.contains("band ±50.000%: declared reason"), "{md}");
+        // Provenance: the temporary directory is no git checkout, and the report, its
+        // JSON and the index say so, with the build.
+        let build = if cfg!(debug_assertions) {
+            "dev"
+        } else {
+            "release"
+        };
+        assert!(
+            index.contains(&format!("| unknown (no git), {build} | [inside.md]")),
+            "{index}"
+        );
+        assert!(md.contains("| commit | unknown (no git) |"), "{md}");
+        let json =
+            std::fs::read_to_string(dir.path().join("docs/reproductions/inside.json")).unwrap();
+        assert!(json.contains("\"commit\": \"unknown (no git)\""), "{json}");
+    }
+
+    #[test]
+    fn commits_are_described_with_their_state() {
+        assert_eq!(describe_commit(Some("abc123"), Some(false)), "abc123");
+        assert_eq!(
+            describe_commit(Some("abc123"), Some(true)),
+            "abc123 + uncommitted changes"
+        );
+        assert_eq!(
+            describe_commit(Some("abc123"), None),
+            "abc123 (status unknown)"
+        );
+        assert_eq!(describe_commit(None, Some(false)), "unknown (no git)");
+        // In a git checkout (CI's), a hexadecimal hash, whatever its state.
+        let root = workspace_root();
+        if root.join(".git").exists() {
+            let here = source_commit(&root);
+            let hash = here.split(' ').next().unwrap_or_default();
+            assert!(
+                hash.len() >= 7 && hash.chars().all(|c| c.is_ascii_hexdigit()),
+                "{here}"
+            );
+        }
     }
 
     #[test]
