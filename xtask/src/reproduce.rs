@@ -13,6 +13,7 @@
 //! and in the index (marked as listed) but do not change the exit status. Full and quick
 //! runs read the same list.
 
+use crate::cpu::Stopwatch;
 use crate::open_failures::OpenFailures;
 use crate::report::{Report, Row, Status, Tolerance};
 use crate::repro::{self, Reproduction};
@@ -20,7 +21,6 @@ use anyhow::{Context, bail};
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 /// Arguments of `reproduce-figures`.
 #[derive(clap::Args, Debug)]
@@ -62,6 +62,9 @@ struct JsonReport<'a> {
     title: &'a str,
     quick: bool,
     wall_seconds: f64,
+    /// CPU seconds of the whole run (every thread and waited-for child, [`Stopwatch`]);
+    /// `None` where `/proc` is not readable.
+    cpu_seconds: Option<f64>,
     /// The build profile of the xtask that ran ([`BUILD_PROFILE`]).
     build: &'a str,
     /// The commit of the source tree that ran ([`source_commit`]).
@@ -151,13 +154,16 @@ fn run_with(all: &[Reproduction], args: &Args, root: &Path) -> anyhow::Result<()
             quick: args.quick,
             fig_dir,
         };
-        let start = Instant::now();
+        let start = Stopwatch::start();
         let mut report = (r.run)(&ctx).with_context(|| format!("reproduction {} failed", r.id))?;
-        let wall = start.elapsed().as_secs_f64();
+        let elapsed = start.elapsed();
+        let wall = elapsed.wall;
         // Times depend on the build, and every number on the code: every report says
-        // which build and which commit produced it.
+        // which build and which commit produced it, and what the whole run cost in CPU
+        // time (wall time on the shared machine depends on its load).
         report.param("xtask build", BUILD_PROFILE);
         report.param("commit", &commit);
+        report.param("CPU time of the whole run", &fmt_cpu(elapsed.cpu));
 
         let json = JsonReport {
             id: r.id,
@@ -165,6 +171,7 @@ fn run_with(all: &[Reproduction], args: &Args, root: &Path) -> anyhow::Result<()
             title: r.title,
             quick: args.quick,
             wall_seconds: wall,
+            cpu_seconds: elapsed.cpu,
             build: BUILD_PROFILE,
             commit: &commit,
             rows: &report.rows,
@@ -241,7 +248,7 @@ fn run_with(all: &[Reproduction], args: &Args, root: &Path) -> anyhow::Result<()
                 );
             }
         }
-        eprintln!("  wall time {wall:.2} s");
+        eprintln!("  wall time {wall:.2} s, CPU time {}", fmt_cpu(elapsed.cpu));
     }
     write_index(all, &doc_dir, &open_list)?;
     if open > 0 {
@@ -405,6 +412,9 @@ impl IndexRow {
 #[derive(serde::Deserialize)]
 struct IndexEntry {
     wall_seconds: f64,
+    /// Absent in reports written before session 28.
+    #[serde(default)]
+    cpu_seconds: Option<f64>,
     /// Absent in reports written before session 27.
     #[serde(default)]
     build: Option<String>,
@@ -456,6 +466,12 @@ fn describe_commit(head: Option<&str>, dirty: Option<bool>) -> String {
     }
 }
 
+/// A run's CPU seconds as the reports print them ("not recorded" without `/proc`, and in
+/// the index for reports written before CPU time was recorded).
+fn fmt_cpu(cpu: Option<f64>) -> String {
+    cpu.map_or_else(|| "not recorded".into(), |c| format!("{c:.1} s"))
+}
+
 /// The build that runs the reproductions, as the reports state it.
 const BUILD_PROFILE: &str = if cfg!(debug_assertions) {
     "dev profile (opt-level 1, debug assertions): times are not release times"
@@ -475,7 +491,7 @@ fn write_index(all: &[Reproduction], doc_dir: &Path, open: &OpenFailures) -> any
          unlisted failure fails the command.\n\n\
          The commit and build of each report are those of the run that wrote it; a report \
          older than the code it describes is stale until rerun.\n\n\
-         | id | source | pass | known deviation | fail | info | wall time | commit, build | report |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
+         | id | source | pass | known deviation | fail | info | wall time | CPU time | commit, build | report |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
     );
     let mut details = String::new();
     let mut totals = [0usize; 4];
@@ -511,7 +527,7 @@ fn write_index(all: &[Reproduction], doc_dir: &Path, open: &OpenFailures) -> any
                 };
                 let _ = writeln!(
                     s,
-                    "| `{}` | {} | {} | {} | {} | {} | {:.1} s | {} | [{}.md]({}.md) |",
+                    "| `{}` | {} | {} | {} | {} | {} | {:.1} s | {} | {} | [{}.md]({}.md) |",
                     r.id,
                     r.source,
                     c[0],
@@ -519,6 +535,7 @@ fn write_index(all: &[Reproduction], doc_dir: &Path, open: &OpenFailures) -> any
                     fail_cell,
                     c[3],
                     e.wall_seconds,
+                    fmt_cpu(e.cpu_seconds),
                     e.provenance(),
                     r.id,
                     r.id
@@ -541,7 +558,7 @@ fn write_index(all: &[Reproduction], doc_dir: &Path, open: &OpenFailures) -> any
             None => {
                 let _ = writeln!(
                     s,
-                    "| `{}` | {} | — | — | — | — | not run | — | — |",
+                    "| `{}` | {} | — | — | — | — | not run | — | — | — |",
                     r.id, r.source
                 );
             }
@@ -549,7 +566,7 @@ fn write_index(all: &[Reproduction], doc_dir: &Path, open: &OpenFailures) -> any
     }
     let _ = writeln!(
         s,
-        "| **total** | | {} | {} | {} ({total_listed} listed) | {} | | | |",
+        "| **total** | | {} | {} | {} ({total_listed} listed) | {} | | | | |",
         totals[0], totals[1], totals[2], totals[3]
     );
     s.push_str(&details);
@@ -692,9 +709,16 @@ mod tests {
             "{index}"
         );
         assert!(md.contains("| commit | unknown (no git) |"), "{md}");
+        // The whole run's CPU time is recorded (this process reads `/proc`).
+        assert!(md.contains("| CPU time of the whole run | "), "{md}");
+        assert!(
+            !md.contains("| CPU time of the whole run | not recorded |"),
+            "{md}"
+        );
         let json =
             std::fs::read_to_string(dir.path().join("docs/reproductions/inside.json")).unwrap();
         assert!(json.contains("\"commit\": \"unknown (no git)\""), "{json}");
+        assert!(json.contains("\"cpu_seconds\": "), "{json}");
     }
 
     #[test]
