@@ -163,7 +163,7 @@ fn run_with(all: &[Reproduction], args: &Args, root: &Path) -> anyhow::Result<()
         // time (wall time on the shared machine depends on its load).
         report.param("xtask build", BUILD_PROFILE);
         report.param("commit", &commit);
-        report.param("CPU time of the whole run", &fmt_cpu(elapsed.cpu));
+        report.param("CPU time of the whole run", fmt_cpu(elapsed.cpu));
 
         let json = JsonReport {
             id: r.id,
@@ -440,6 +440,8 @@ impl IndexEntry {
 /// The source tree's commit as `git` describes it: the short hash of `HEAD`, plus
 /// "+ uncommitted changes" when tracked files differ from it (an honest report can then
 /// be traced to code, or is marked as not quite any commit); "unknown" without git.
+/// The reports themselves ([`REPORT_DIR`]) are outputs, not source: a run that follows
+/// another before its reports are committed is not marked for them.
 fn source_commit(root: &Path) -> String {
     let git = |args: &[&str]| {
         std::process::Command::new("git")
@@ -453,9 +455,20 @@ fn source_commit(root: &Path) -> String {
     };
     describe_commit(
         git(&["rev-parse", "--short=10", "HEAD"]).as_deref(),
-        git(&["status", "--porcelain", "--untracked-files=no"]).map(|s| !s.is_empty()),
+        git(&[
+            "status",
+            "--porcelain",
+            "--untracked-files=no",
+            "--",
+            ".",
+            &format!(":(exclude){REPORT_DIR}"),
+        ])
+        .map(|s| !s.is_empty()),
     )
 }
+
+/// Where full runs write their reports, relative to the workspace root.
+const REPORT_DIR: &str = "docs/reproductions";
 
 fn describe_commit(head: Option<&str>, dirty: Option<bool>) -> String {
     match (head, dirty) {
@@ -743,6 +756,39 @@ mod tests {
                 "{here}"
             );
         }
+    }
+
+    /// A changed report is no uncommitted source change; any other tracked file is.
+    #[test]
+    fn reports_written_by_an_earlier_run_do_not_mark_the_source_dirty() {
+        let git_here = |dir: &Path, args: &[&str]| {
+            let out = std::process::Command::new("git")
+                .arg("-C")
+                .arg(dir)
+                .args(["-c", "user.name=t", "-c", "user.email=t@t"])
+                .args(args)
+                .output()
+                .expect("git runs (the reports' provenance needs it)");
+            assert!(out.status.success(), "git {args:?}: {out:?}");
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path();
+        let report = root.join(REPORT_DIR).join("x.md");
+        std::fs::create_dir_all(report.parent().unwrap()).unwrap();
+        std::fs::write(&report, "old report").unwrap();
+        std::fs::write(root.join("lib.rs"), "fn a() {}").unwrap();
+        git_here(root, &["init", "-q"]);
+        git_here(root, &["add", "."]);
+        git_here(root, &["commit", "-q", "-m", "first"]);
+        let clean = source_commit(root);
+        assert!(!clean.contains('+'), "{clean}");
+        std::fs::write(&report, "new report").unwrap();
+        assert_eq!(source_commit(root), clean);
+        std::fs::write(root.join("lib.rs"), "fn b() {}").unwrap();
+        assert_eq!(
+            source_commit(root),
+            format!("{clean} + uncommitted changes")
+        );
     }
 
     #[test]
