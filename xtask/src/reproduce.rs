@@ -503,7 +503,8 @@ fn write_index(all: &[Reproduction], doc_dir: &Path, open: &OpenFailures) -> any
          issue and measured reason) is still a failure, counted and marked as listed; an \
          unlisted failure fails the command.\n\n\
          The commit and build of each report are those of the run that wrote it; a report \
-         older than the code it describes is stale until rerun.\n\n\
+         older than the code it describes is stale until rerun (`freshness.md` says which \
+         are, and why).\n\n\
          | id | source | pass | known deviation | fail | info | wall time | CPU time | commit, build | report |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
     );
     let mut details = String::new();
