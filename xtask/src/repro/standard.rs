@@ -20,7 +20,7 @@
 //! factor ~60 for the change to the wavelet coefficients' norm (not measured). The
 //! coefficient counts use the issue's threshold `1e-6 · max`.
 
-use std::time::Instant;
+use crate::cpu::Stopwatch;
 
 use crate::plot::{Axis, Series, Style, xy_plot};
 use crate::report::{Figure, Report, Row, Table, Tolerance};
@@ -92,26 +92,26 @@ fn run_case(case: &Case) -> anyhow::Result<Outcome> {
     let sol = solve(&scene, &cfg)?;
     let sys = sol.system();
     let channels = sol.stats.iterations.len();
-    let t0 = Instant::now();
+    let t0 = Stopwatch::start();
     let st = StandardSystem::from_system(sys, sol.basis())?;
-    let t_assemble = t0.elapsed().as_secs_f64();
-    // Solves of the same channels, same method, both from the emission; wall times are
-    // the median of SOLVES repetitions (the machine is shared).
+    let t_assemble = t0.elapsed().cpu_or_wall();
+    // Solves of the same channels, same method, both from the emission; CPU times are
+    // the median of SOLVES repetitions.
     let mut ns_x = Vec::new();
     let mut st_x = Vec::new();
     let mut t_ns = Vec::new();
     let mut t_st = Vec::new();
     for _ in 0..SOLVES {
-        let t0 = Instant::now();
+        let t0 = Stopwatch::start();
         ns_x = (0..channels)
             .map(|ch| Ok(solve_channel(sys, ch, method, max_it, tol, None, None)?.0))
             .collect::<anyhow::Result<_>>()?;
-        t_ns.push(t0.elapsed().as_secs_f64());
-        let t0 = Instant::now();
+        t_ns.push(t0.elapsed().cpu_or_wall());
+        let t0 = Stopwatch::start();
         st_x = (0..channels)
             .map(|ch| Ok(st.solve_channel(ch, method, max_it, tol, None, None)?.0))
             .collect::<anyhow::Result<_>>()?;
-        t_st.push(t0.elapsed().as_secs_f64());
+        t_st.push(t0.elapsed().cpu_or_wall());
     }
     let (t_ns_solve, t_std_solve) = (median(t_ns), median(t_st));
     let mut max_diff = 0.0f64;
@@ -130,12 +130,12 @@ fn run_case(case: &Case) -> anyhow::Result<Outcome> {
     let mut t_ns = Vec::new();
     let mut t_st = Vec::new();
     for _ in 0..APPLIES {
-        let t = Instant::now();
+        let t = Stopwatch::start();
         k_ns.apply(x, &mut y);
-        t_ns.push(t.elapsed().as_secs_f64());
-        let t = Instant::now();
+        t_ns.push(t.elapsed().cpu_or_wall());
+        let t = Stopwatch::start();
         k_st.apply(&w, &mut y);
-        t_st.push(t.elapsed().as_secs_f64());
+        t_st.push(t.elapsed().cpu_or_wall());
     }
     Ok(Outcome {
         links: sys.hierarchy().link_count(),
@@ -406,9 +406,7 @@ fn push_rows(report: &mut Report, c: &CaseResults, d: &DepthSweep, n: usize) {
             "",
             Tolerance::Info,
         )
-        .comment(
-            "sparse block matrix-vector product vs pull-gather-push; wall time on a shared machine",
-        ),
+        .comment("sparse block matrix-vector product vs pull-gather-push; CPU time (all threads)"),
     );
     report.rows.push(
         Row::new(
@@ -458,7 +456,7 @@ fn push_tables(report: &mut Report, sweep_tab: Vec<Vec<String>>, tab: Vec<Vec<St
         rows: sweep_tab,
     });
     report.tables.push(Table {
-        title: "Per case: counts, ratios, timings (t_asm in s; ratios standard / non-standard; \
+        title: "Per case: counts, ratios, timings (t_asm in CPU s; ratios standard / non-standard of CPU times; \
                 \"> tol\" counts entries above 1e-6 × the largest entry of the same form)"
             .into(),
         headers: [
