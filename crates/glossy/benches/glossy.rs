@@ -29,16 +29,17 @@ use wavelux_scene::{Rgb, WardParams};
 const N: usize = 4096;
 
 /// CPU time (ns) of this process's living threads: the sum of the first field of
-/// `/proc/self/task/*/schedstat` (Linux; each thread's time on a CPU, kept by the
-/// scheduler and current to within one scheduler tick, so a sample of tens of
-/// milliseconds reads to a few per cent and the mean over samples is unbiased).
-/// Values are nanoseconds, shown by criterion's own duration formatter.
+/// `/proc/self/task/*/schedstat` (Linux; each thread's time on a CPU). The scheduler
+/// brings the running thread's count up to date only at a tick or a switch, so a read
+/// first yields (`sched_yield` updates it); without that a sample shorter than a tick
+/// could read zero. Values are nanoseconds, shown by criterion's duration formatter.
 struct CpuTime {
     wall: WallTime,
 }
 
 impl CpuTime {
     fn now() -> u64 {
+        std::thread::yield_now();
         let tasks = std::fs::read_dir("/proc/self/task").expect("Linux /proc/self/task");
         tasks
             .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
