@@ -17,10 +17,10 @@
 //! `L₃(z) = (ρ₃/π) L₂(ω_{2→z}) G(y₂, z) A₂` (the patches 1 and 2 are 0.01 wide at
 //! distances ≥ 1, so the midpoint formulas are accurate to ~1e-4 relative).
 
+use crate::cpu::Stopwatch;
 use crate::report::{Report, Row, Table, Tolerance};
 use crate::reproduce::Ctx;
 use std::f64::consts::PI;
-use std::time::Instant;
 use wavelux::glossy::directions::DirectionKind;
 use wavelux::glossy::solution::Field;
 use wavelux::glossy::{
@@ -242,7 +242,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     let lobe = WardLobe::new(WardVariant::Original, 0.2, 0.2)?;
 
     // Run A: no importance, patch 2's convergence.
-    let t0 = Instant::now();
+    let t0 = Stopwatch::start();
     let mut none = GlossySolution::new(
         &scene,
         "glossy-fig13",
@@ -253,7 +253,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         "0 (V⁰)".to_string(),
         none.links.len().to_string(),
         format!("{:.4}", errs[0]),
-        format!("{:.3}", t0.elapsed().as_secs_f64()),
+        format!("{:.3}", t0.elapsed().cpu_or_wall()),
     ]];
     for _ in 0..rounds {
         let Some(rs) = none.refine_round()? else {
@@ -265,17 +265,17 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             rs.round.to_string(),
             rs.links.to_string(),
             format!("{e:.4}"),
-            format!("{:.3}", t0.elapsed().as_secs_f64()),
+            format!("{:.3}", t0.elapsed().cpu_or_wall()),
         ]);
     }
-    let none_secs = t0.elapsed().as_secs_f64();
+    let none_secs = t0.elapsed().cpu_or_wall();
     r.tables.push(Table {
         title: "Patch 2: relative L² error vs links and time (no importance)".into(),
         headers: vec![
             "round".into(),
             "links".into(),
             "relative L² error".into(),
-            "cumulative s".into(),
+            "cumulative CPU s".into(),
         ],
         rows: trace,
     });
@@ -336,19 +336,19 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         Tolerance::Info,
     ));
     // Run B: importance emitted by patch 3.
-    let t1 = Instant::now();
+    let t1 = Stopwatch::start();
     let mut imp = GlossySolution::new(
         &scene,
         "glossy-fig13",
         config(rounds, ImportanceSource::Surfaces(vec!["patch3".into()])),
     )?;
     imp.run(|_| {})?;
-    let imp_secs = t1.elapsed().as_secs_f64();
+    let imp_secs = t1.elapsed().cpu_or_wall();
     let e_none = error_patch3(&none, &lobe, k3, None);
     let e_imp = error_patch3(&imp, &lobe, k3, None);
-    let t2 = Instant::now();
+    let t2 = Stopwatch::start();
     let e_gather = error_patch3(&imp, &lobe, k3, Some(gather_rays));
-    let gather_secs = t2.elapsed().as_secs_f64();
+    let gather_secs = t2.elapsed().cpu_or_wall();
     for (name, e, secs, links) in [
         ("no importance", e_none, none_secs, none.links.len()),
         ("importance", e_imp, imp_secs, imp.links.len()),
@@ -367,7 +367,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
                 "",
                 Tolerance::Info,
             )
-            .comment(format!("{links} links, {secs:.2} s")),
+            .comment(format!("{links} links, {secs:.2} s CPU")),
         );
     }
     let into_3 = |s: &GlossySolution| s.links.ranges.get(2).map_or(0, |x| x.len()) as f64;
