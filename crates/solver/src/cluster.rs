@@ -31,12 +31,15 @@
 //! rather than their isotropic average): member `j` of `E` is a point source of
 //! power `Φ_j = ∫_{j, real} B dA` at the cluster centre seen from `R`, weighted by its
 //! cosine factor `g_j` towards `R`'s centre (`max(0, n_j · ω)`, or its
-//! Jacobian-weighted average over 3 × 3 points of a curved support); member `i` of
-//! `R` receives the constant irradiance `H_i = g_i · V / (π d_c²) · Σ_j g_j Φ_j`
-//! (`d_c` the distance of the centres, `V` the visible fraction of up to 3 × 3 rays
-//! between the members that carry the most `g · A`). That is, per member pair, the
-//! point-to-point form factor `A_j g_i g_j V / (π d_c²)`: reciprocal
-//! (`A_i F_ij = A_j F_ji`), and applied in `O(|R| + |E|)` per link: the emitters'
+//! Jacobian-weighted average over 3 × 3 points of a curved support) and by the square
+//! root of its visible fraction `V_j` (the share of its rays to the [`VIS_MEMBERS`]
+//! members of `R` that carry the most `g · A`); member `i` of `R` receives the
+//! constant irradiance `H_i = g_i √V_i / (π D²) · Σ_j g_j √V_j Φ_j` (`D` the distance
+//! of the centres). That is, per member pair, the point-to-point form factor
+//! `A_j g_i g_j √(V_i V_j) / (π D²)`: reciprocal (`A_i F_ij = A_j F_ji`; one visible
+//! fraction per link, as Smits et al. use, let a chair's legs under its seat receive
+//! what the seat sees), made with `3 (|R| + |E|)` rays and applied in `O(|R| + |E|)`
+//! per link: the emitters'
 //! power is gathered (pulled from the leaves to the roots by the system's pull) and
 //! the irradiance is pushed from the roots to the leaves by the system's push
 //! ([`ClusterOp`], applied by [`crate::System`]'s gather and its transpose).
