@@ -278,11 +278,23 @@ fn fill_blocks(ctx: &TransferCtx<'_>, links: &mut [LinkRec]) {
     }
 }
 
-/// Refines every root pair `(receiver, emitter)` of patches that can interact:
-/// receivers that reflect, emitters that emit or reflect, on different pieces — or
-/// the same patch when its curved support sees itself ([`crate::Support::sees_itself`],
+/// Whether the root pair `(receiver i, emitter j)` can interact: the receiver
+/// reflects, the emitter emits or reflects, and they are different pieces — or the
+/// same patch when its curved support sees itself ([`crate::Support::sees_itself`],
 /// VirtualMesh §5.3; planar patches never self-link). The two sides of one curved
 /// piece are not linked (light between them has to cross the sheet).
+pub(crate) fn may_link(ctx: &TransferCtx<'_>, i: usize, j: usize) -> bool {
+    let (a, b) = (&ctx.patches[i], &ctx.patches[j]);
+    let pair = if a.prim == b.prim {
+        i == j && a.support.sees_itself()
+    } else {
+        true
+    };
+    a.reflects() && pair && b.can_emit()
+}
+
+/// Refines every root pair `(receiver, emitter)` of patches that can interact
+/// ([`may_link`]): all pairs, the initial linking without clustering.
 pub fn refine_all(
     ctx: &TransferCtx<'_>,
     p: &RefineParams,
@@ -290,21 +302,21 @@ pub fn refine_all(
 ) -> (Vec<LinkRec>, RefineCounts) {
     let np = ctx.patches.len();
     let pairs: Vec<(usize, usize)> = (0..np)
-        .filter(|&i| ctx.patches[i].reflects())
-        .flat_map(|i| {
-            (0..np)
-                .filter(move |&j| {
-                    let (a, b) = (&ctx.patches[i], &ctx.patches[j]);
-                    let pair = if a.prim == b.prim {
-                        i == j && a.support.sees_itself()
-                    } else {
-                        true
-                    };
-                    pair && b.can_emit()
-                })
-                .map(move |j| (i, j))
-        })
+        .flat_map(|i| (0..np).map(move |j| (i, j)))
+        .filter(|&(i, j)| may_link(ctx, i, j))
         .collect();
+    refine_pairs(ctx, p, &pairs, brightness)
+}
+
+/// Refines the given root pairs `(receiver, emitter)` (each through [`refine_link`],
+/// in parallel, collected in the order of `pairs`) and fills the blocks a batching
+/// context left empty.
+pub(crate) fn refine_pairs(
+    ctx: &TransferCtx<'_>,
+    p: &RefineParams,
+    pairs: &[(usize, usize)],
+    brightness: &(dyn Fn(&NodeKey) -> f64 + Sync),
+) -> (Vec<LinkRec>, RefineCounts) {
     let parts: Vec<(Vec<LinkRec>, RefineCounts)> = pairs
         .par_iter()
         .map(|&(i, j)| {

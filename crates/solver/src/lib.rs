@@ -23,6 +23,9 @@
 //! - [`hierarchy`]: nodes, links, refinement, the compiled level-ordered hierarchy;
 //! - [`closure`]: closure links that make every leaf's form-factor row sum exactly what
 //!   its links see (so closed enclosures conserve energy at every level);
+//! - [`cluster`]: hierarchical radiosity with clustering for the initial links (a
+//!   bounding-volume hierarchy of the patches, cluster links by a conservative
+//!   transport bound; Smits, Arvo & Greenberg 1994);
 //! - [`cdv`]: Cohen–Daubechies–Vial wavelets (overlapping supports): vertex links,
 //!   deduplicated refinement, push/pull by the CDV two-scale rows, its own system;
 //! - [`system`]: matrix-free `K`, `Kᵀ` and Gauss–Seidel sweeps (rayon, deterministic);
@@ -45,6 +48,7 @@
 pub mod basis;
 pub mod cdv;
 pub mod closure;
+pub mod cluster;
 pub mod error;
 pub mod escape;
 pub mod estimate;
@@ -167,6 +171,13 @@ pub struct SolverConfig {
     /// up to rounding). With [`Decomposition::Standard`] the assembly of the standard
     /// operator counts into [`Statistics::time_refine`].
     pub decomposition: Decomposition,
+    /// Clustering of the initial links ([`cluster`], Smits, Arvo & Greenberg 1994):
+    /// `Some(tol)` links groups of surfaces whose conservative transport bound
+    /// `ρ_R · B̂_E · F̄(R ← E)` is at most `tol` times the scene's predicted mean
+    /// reflected radiosity (dimensionless, `> 0`, finite) by one cluster link instead
+    /// of all their root pairs; `None` (the default) links every root pair. Not with
+    /// the CDV basis or the standard decomposition.
+    pub cluster: Option<f64>,
 }
 
 impl Default for SolverConfig {
@@ -190,6 +201,7 @@ impl Default for SolverConfig {
             tolerance: 1e-10,
             multigrid: None,
             decomposition: Decomposition::NonStandard,
+            cluster: None,
         }
     }
 }
@@ -271,6 +283,18 @@ impl SolverConfig {
                     "decomposition",
                     format!("{:?}", self.decomposition),
                     "CDV is solved in the non-standard form only",
+                ));
+            }
+        }
+        if let Some(t) = self.cluster {
+            if !(t.is_finite() && t > 0.0) {
+                return Err(bad("cluster", t, "must be finite and > 0"));
+            }
+            if self.basis == BasisKind::Cdv || self.decomposition != Decomposition::NonStandard {
+                return Err(bad(
+                    "cluster",
+                    t,
+                    "cluster links are applied by the non-standard tree-basis system only",
                 ));
             }
         }
@@ -753,6 +777,7 @@ pub(crate) fn solve_links(
     tolerance: f64,
     matvec: Option<&dyn MatVecBackend>,
     closure_cache: &mut closure::ClosureCache,
+    clusters: Option<&cluster::ClusterLinks>,
 ) -> Result<Solution, SolverError> {
     let cfg = &prep.config;
     let patches = &prep.patches.patches;
@@ -769,14 +794,20 @@ pub(crate) fn solve_links(
         let all: Vec<LinkRec> = links.iter().chain(&closing).cloned().collect();
         Hierarchy::compile(prep.basis.n(), patches.len(), &all)
     };
-    let system = System::new(h, &prep.basis, patches).with_closure_source(&source);
+    let system = System::new(h, &prep.basis, patches)
+        .with_closure_source(&source)
+        .with_clusters(clusters, &prep.basis, patches);
     let standard = match cfg.decomposition {
         Decomposition::Standard => Some(StandardSystem::from_system(&system, &prep.basis)?),
         _ => None,
     };
     // The gather on the matrix–vector device (crate::matvec).
     let gather_m = match matvec {
-        Some(_) if standard.is_none() && cfg.linear_method != LinearMethod::GaussSeidel => {
+        Some(_)
+            if standard.is_none()
+                && cfg.linear_method != LinearMethod::GaussSeidel
+                && !system.has_clusters() =>
+        {
             Some(matvec::gather_matrix(&system.h)?)
         }
         _ => None,
@@ -863,6 +894,7 @@ pub(crate) fn solve_links(
     stats.leaves = system.h.leaves.len();
     stats.links = system.h.link_count() - closing.len();
     stats.closure_links = closing.len();
+    stats.cluster_links = clusters.map_or(0, cluster::ClusterLinks::len);
     [stats.cells_empty, stats.cells_partial, stats.cells_full] = system.coverage_counts;
     stats.kernel_evals = ctx.kernel_evals.load(std::sync::atomic::Ordering::Relaxed);
     stats.rays = ctx.rays.load(std::sync::atomic::Ordering::Relaxed);
@@ -960,13 +992,16 @@ pub fn solve_prepared_on(prep: &Prepared, backends: Backends<'_>) -> Result<Solu
     };
     let patches = &prep.patches.patches;
     let mut closure_cache = closure::ClosureCache::new();
+    let mut clusters = None;
     for stage in 0..stages {
         let eps = cfg.eps * factor.powi((stages - 1 - stage) as i32);
         let params = prep.refine_params(eps);
         let t_ref = Instant::now();
         let bright = |k: &NodeKey| brightness(prev.as_ref(), patches, k);
         let (new_links, counts) = if stage == 0 {
-            hierarchy::refine_all(&ctx, &params, &bright)
+            let (l, c, cl) = cluster::initial_links(&ctx, &params, cfg.cluster, prep, &bright);
+            clusters = cl;
+            (l, c)
         } else {
             hierarchy::rerefine(&ctx, &params, std::mem::take(&mut links), &bright)
         };
@@ -985,6 +1020,7 @@ pub fn solve_prepared_on(prep: &Prepared, backends: Backends<'_>) -> Result<Solu
             cfg.tolerance,
             backends.matvec,
             &mut closure_cache,
+            clusters.as_ref(),
         )?);
     }
     let mut sol = prev.ok_or_else(|| SolverError::InvalidScene("no stage ran".into()))?;

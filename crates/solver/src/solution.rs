@@ -68,6 +68,9 @@ pub struct Statistics {
     /// Closure links (one per leaf whose row sum was corrected, see [`crate::closure`]);
     /// not counted in `links`.
     pub closure_links: usize,
+    /// Cluster links (groups of surfaces linked as one, see [`crate::cluster`]); not
+    /// counted in `links`.
+    pub cluster_links: usize,
     /// Links split during refinement.
     pub refined_links: u64,
     /// Ziegler's count (§3.3.3): cell pairs whose 15 wavelet form factors (16 on

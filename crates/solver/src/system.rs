@@ -151,6 +151,9 @@ pub struct System {
     /// added to the right-hand side by [`Self::source`] (times the reflectance) and to
     /// a solution's irradiance; empty when none.
     extra_irradiance: [Vec<f64>; 3],
+    /// Cluster links between groups of patch roots ([`crate::cluster`]), applied
+    /// beside the links by every gather; `None` without clustering.
+    clusters: Option<Box<crate::cluster::ClusterOp>>,
 }
 
 impl System {
@@ -207,7 +210,27 @@ impl System {
             leaf_real_moments,
             coverage_counts,
             extra_irradiance: std::array::from_fn(|_| Vec::new()),
+            clusters: None,
         }
+    }
+
+    /// The system with the cluster links `clusters` ([`crate::cluster`]) applied beside
+    /// the links (no change when `None` or empty).
+    pub fn with_clusters(
+        mut self,
+        clusters: Option<&crate::cluster::ClusterLinks>,
+        basis: &TreeBasis,
+        patches: &[Patch],
+    ) -> Self {
+        self.clusters = clusters
+            .filter(|c| !c.is_empty())
+            .map(|c| Box::new(c.operator(&self.h, basis, patches)));
+        self
+    }
+
+    /// Whether cluster links are applied (see [`Self::with_clusters`]).
+    pub fn has_clusters(&self) -> bool {
+        self.clusters.is_some()
     }
 
     /// The system with the closure's emitted part as an extra source: `source` holds
@@ -383,6 +406,9 @@ impl System {
                 }
             }
         });
+        if let Some(c) = &self.clusters {
+            c.gather(src, dst);
+        }
     }
 
     /// `dst[E] = Σ_{links R←E} Tᵀ · src[R]` for every node.
@@ -405,6 +431,9 @@ impl System {
                 }
             }
         });
+        if let Some(c) = &self.clusters {
+            c.scatter_transpose(src, dst);
+        }
     }
 
     /// Irradiance at the leaves for leaf radiosity `x` (no reflectance applied):
@@ -465,6 +494,13 @@ impl System {
         let mut nodes = vec![0.0; nn];
         self.pull_from_leaves(x, &mut nodes);
         let mut hv = vec![0.0; nn];
+        // Cluster links gather from the radiosity at the start of the sweep (their
+        // transport is bounded small, see crate::cluster): a Jacobi part of the sweep.
+        let lagged = self.clusters.as_ref().map(|c| {
+            let mut g = vec![0.0; nn];
+            c.gather(&nodes, &mut g);
+            g
+        });
         for list in &self.patch_nodes {
             if list.is_empty() {
                 continue;
@@ -473,7 +509,10 @@ impl System {
             for &i in list {
                 let i = i as usize;
                 let out = &mut hv[i * n..][..n];
-                out.iter_mut().for_each(|v| *v = 0.0);
+                match &lagged {
+                    Some(g) => out.copy_from_slice(&g[i * n..][..n]),
+                    None => out.iter_mut().for_each(|v| *v = 0.0),
+                }
                 for l in self.h.recv_offsets[i]..self.h.recv_offsets[i + 1] {
                     let e = self.h.link_emitter[l] as usize;
                     let blk = &self.h.blocks[l * n * n..][..n * n];

@@ -121,6 +121,13 @@ impl TargetConfig {
                 "must be finite and > 0",
             ));
         }
+        if let Some(t) = self.solver.cluster {
+            return Err(bad(
+                "solver.cluster",
+                t.to_string(),
+                "the error estimate does not see cluster links: cluster a fixed refinement",
+            ));
+        }
         if let Some(f) = self.face_target
             && (f.is_nan() || f <= 0.0)
         {
@@ -229,7 +236,7 @@ pub fn choose_basis(prep: &Prepared) -> (BasisKind, String) {
 
 /// The predicted mean reflected radiosity `ρ̄ Φ / A` of a scene (W/m², largest
 /// channel): emitted power over the receiving area times the area-mean reflectance.
-fn mean_reflected(prep: &Prepared) -> f64 {
+pub(crate) fn mean_reflected(prep: &Prepared) -> f64 {
     let patches = &prep.patches.patches;
     let mut best: f64 = 0.0;
     for c in 0..3 {
@@ -338,6 +345,7 @@ pub fn solve_to_target_on(
             tolerance,
             backends.matvec,
             &mut closure_cache,
+            None,
         )?;
         let est = estimate_cached(&ctx, &sol, &cfg.estimate, &mut cache)?;
         let den: f64 = est.reflected_l1.iter().sum();

@@ -6,13 +6,16 @@
 //! `cargo run --release -p wavelux-volume --example solve_cpu -- MODE SIDE N [OUT]`:
 //! `MODE` `default` is the command's default solve and projector
 //! (`GlobalCubeConfig::default()`, `CpuProjector::default()`) with the framebuffer cap
-//! `N`; `standard` is the standard global cube of `global-cube-mc` (levels 0, GMRES
-//! to 1e-6, no supersampling, one receiver sample) at framebuffer `N`. `SIDE` picks
+//! `N`; `reprojected` is the same with the transport re-projected at every sweep
+//! (`transport_memory` 0: the projector's plain gather instead of its recording);
+//! `standard` is the standard global cube of `global-cube-mc`
+//! ([`GlobalCubeConfig::standard`]: levels 0, GMRES to 1e-6; no supersampling, one
+//! receiver sample) at framebuffer `N`. `SIDE` picks
 //! `gc-lounge-SIDE`. Run with `RAYON_NUM_THREADS=1` for timings.
 
 use std::error::Error;
 use wavelux_volume::backend::cpu::{AntiAlias, CpuProjector, Projection};
-use wavelux_volume::{GlobalCubeConfig, Relaxation, VolumeGrid};
+use wavelux_volume::{GlobalCubeConfig, VolumeGrid};
 
 /// CPU seconds (user + system) of this process so far, from `/proc/self/stat` (Linux;
 /// clock ticks of 1/100 s).
@@ -47,18 +50,21 @@ fn main() -> Result<(), Box<dyn Error>> {
             },
             CpuProjector::default(),
         ),
-        "standard" => (
+        "reprojected" => (
             GlobalCubeConfig {
-                levels: 0,
                 framebuffer: n,
-                escape_framebuffer: n.max(8),
-                solver: Relaxation::Gmres,
-                tolerance: 1e-6,
+                transport_memory: 0,
                 ..GlobalCubeConfig::default()
             },
+            CpuProjector::default(),
+        ),
+        "standard" => (
+            GlobalCubeConfig::standard(n),
             CpuProjector::new(Projection::Exact, AntiAlias::OFF),
         ),
-        other => return Err(format!("mode {other}: expected default or standard").into()),
+        other => {
+            return Err(format!("mode {other}: expected default, reprojected or standard").into());
+        }
     };
     let start = cpu_seconds()?;
     let s = wavelux_volume::solve(&grid, &cfg, &projector, &mut |_| {})?;

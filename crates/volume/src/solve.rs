@@ -159,6 +159,23 @@ impl Default for GlobalCubeConfig {
 }
 
 impl GlobalCubeConfig {
+    /// The standard (non-hierarchical) global cube at framebuffer `framebuffer`, solved
+    /// tightly: levels 0 (every voxel a receiver), GMRES to a relative residual of
+    /// 1e-6, the escape measured at `max(framebuffer, 8)`; every other knob is the
+    /// default. This is the model that `global-cube-mc` compares with Monte Carlo and
+    /// the crate's `solve_cpu` example times.
+    #[must_use]
+    pub fn standard(framebuffer: usize) -> Self {
+        Self {
+            levels: 0,
+            framebuffer,
+            escape_framebuffer: framebuffer.max(8),
+            solver: Relaxation::Gmres,
+            tolerance: 1e-6,
+            ..Self::default()
+        }
+    }
+
     /// Sets every threshold to the 8-bit fraction `t` (GlobalCube Fig. 10).
     #[must_use]
     pub fn with_threshold(mut self, t: f64) -> Self {

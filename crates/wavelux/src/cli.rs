@@ -185,6 +185,14 @@ pub struct SolveArgs {
     /// error (docs/performance.md) [default: 3].
     #[arg(long, value_parser = parse_estimate_visibility)]
     pub estimate_visibility: Option<usize>,
+    /// Cluster the initial links of `gather` (hierarchical radiosity with clustering,
+    /// Smits, Arvo & Greenberg 1994): two groups of surfaces whose conservative
+    /// transport bound is at most this fraction of the scene's predicted mean reflected
+    /// radiosity (`0.01` or `1%`) get one cluster link instead of a link per pair of
+    /// surfaces. Only with one fixed-threshold refinement (--eps, --oracle or
+    /// --max-level) [default: off: every pair of surfaces is linked].
+    #[arg(long, value_parser = parse_fraction)]
+    pub cluster: Option<f64>,
     /// Refinement threshold (see --oracle for its unit); with `gather`, selects one
     /// fixed-threshold refinement instead of the default target error [default: 0.01;
     /// meshless: the dimensionless link threshold, 0.005].

@@ -96,6 +96,10 @@ pub struct MethodInfo {
     pub visibility: Option<String>,
     /// Gauss points per axis.
     pub quad: Option<usize>,
+    /// `--cluster`: the clustering tolerance of the initial links (null: every root
+    /// pair linked).
+    #[serde(default)]
+    pub cluster: Option<f64>,
     /// Shooting: target convergence rate `(E_i − E_r)/E_i` (null otherwise).
     #[serde(default)]
     pub convergence: Option<f64>,
@@ -221,6 +225,9 @@ pub struct Statistics {
     pub leaves: usize,
     /// Links stored.
     pub links: usize,
+    /// Cluster links (`--cluster`; not counted in `links`).
+    #[serde(default)]
+    pub cluster_links: usize,
     /// Links split during refinement.
     pub refined_links: u64,
     /// Oracle evaluations.

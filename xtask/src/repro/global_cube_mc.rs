@@ -16,7 +16,7 @@ use crate::reproduce::Ctx;
 use ndarray::Array3;
 use wavelux::render::reference::volume::{VolumeReferenceOptions, trace_volume};
 use wavelux::volume::backend::cpu::{AntiAlias, CpuProjector, Projection};
-use wavelux::volume::{GlobalCubeConfig, Relaxation, VolumeGrid};
+use wavelux::volume::{GlobalCubeConfig, VolumeGrid};
 
 /// Voxels per side of the comparison blocks.
 const BLOCK: usize = 2;
@@ -224,14 +224,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     let mut model_errors = Vec::new();
     for (k, ns) in [(1u32, sizes), (2, sizes_k2)] {
         for &n in ns {
-            let cfg = GlobalCubeConfig {
-                levels: 0,
-                framebuffer: n,
-                escape_framebuffer: n.max(8),
-                solver: Relaxation::Gmres,
-                tolerance: 1e-6,
-                ..GlobalCubeConfig::default()
-            };
+            let cfg = GlobalCubeConfig::standard(n);
             let p = CpuProjector::new(Projection::Exact, AntiAlias::OFF).with_receiver_samples(k);
             let sw = Stopwatch::start();
             let s = wavelux::volume::solve(&grid, &cfg, &p, &mut |_| {})?;

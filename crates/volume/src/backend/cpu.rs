@@ -21,7 +21,7 @@ use super::{
     check_inputs,
 };
 use crate::cell::{Collision, entry_weights, total_weight_fast};
-use crate::cubemap::{CubeMap, face_index};
+use crate::cubemap::{CubeMap, Pixel, face_index};
 use crate::error::VolumeError;
 
 /// Transmittance below which a ray stops (relative loss of a uniform field ≤ this).
@@ -965,6 +965,53 @@ impl Tracer<'_> {
         steps
     }
 
+    /// The per-pixel walk that [`Tracer::gather_one`] and [`Tracer::record_one`] share:
+    /// per frustum of `map`, the first pass ([`Tracer::centre_pass`], tracing with
+    /// `trace`, keeping its pixels' transport entries in `kept`), then every pixel with
+    /// a positive collision weight, in pixel order, handed to `pixel` with its frustum,
+    /// its index in the frustum, the pass (weights, centre radiances, supersampling
+    /// flags) and the kept entries; `pixel` returns the cells it composited. Returns
+    /// the scale `Ĝ · edge² / Σ ΔΩ (w₀ + w₁ + w₂)` (m², over the walked pixels) that
+    /// turns the receiver's weighted radiance sums into collided power (0 when no
+    /// pixel collides), and the cells composited in all.
+    #[allow(clippy::too_many_arguments)] // reason: the two gathers' shared settings
+    fn walk_pixels(
+        &self,
+        v: &ReceiverView,
+        map: &CubeMap,
+        collision: Collision,
+        aa: &AntiAlias,
+        trace: bool,
+        mut kept: Option<&mut PixelEntries>,
+        mut pixel: impl FnMut(usize, usize, &Pixel, &FacePass, Option<&PixelEntries>) -> u64,
+    ) -> (f64, u64) {
+        let n = map.side;
+        let mut pass = FacePass::new(n);
+        let mut norm = 0.0;
+        let mut steps = 0;
+        for f in 0..6 {
+            let face = &map.pixels[f * n * n..(f + 1) * n * n];
+            let keep = kept.as_deref_mut();
+            steps += self.centre_pass(v, face, collision, aa, trace, &mut pass, keep);
+            for (k, pix) in face.iter().enumerate() {
+                let w = pass.weights[k];
+                let wt = w[0] + w[1] + w[2];
+                if wt <= 0.0 {
+                    continue;
+                }
+                norm += pix.solid_angle * wt;
+                steps += pixel(f, k, pix, &pass, kept.as_deref());
+            }
+        }
+        let scale = if norm > 0.0 {
+            let edge = v.size as f64 * self.scene.voxel;
+            v.total_weight / norm * edge * edge
+        } else {
+            0.0
+        };
+        (scale, steps)
+    }
+
     /// The transport row of receiver `r`: the weights with which the sender faces'
     /// coefficients reach its entry faces (the linear map of [`Tracer::gather_one`]
     /// with the same `aa`, the supersampled pixels being those the tracer's emission
@@ -985,28 +1032,24 @@ impl Tracer<'_> {
         let v = self.receiver_view(r, map);
         let n = map.side;
         let supersampled = aa.subdivisions > 1;
-        let mut pass = FacePass::new(n);
         let RecordScratch { acc, pixels } = scratch;
-        let mut norm = 0.0;
-        let mut steps = 0;
-        for f in 0..6 {
-            let face = &map.pixels[f * n * n..(f + 1) * n * n];
-            let kept = supersampled.then_some(&mut *pixels);
-            steps += self.centre_pass(&v, face, collision, aa, supersampled, &mut pass, kept);
-            for (k, pix) in face.iter().enumerate() {
+        let kept = supersampled.then_some(pixels);
+        let (scale, steps) = self.walk_pixels(
+            &v,
+            map,
+            collision,
+            aa,
+            supersampled,
+            kept,
+            |f, k, pix, pass, kept| {
                 let w = pass.weights[k];
-                let wt = w[0] + w[1] + w[2];
-                if wt <= 0.0 {
-                    continue;
-                }
-                norm += pix.solid_angle * wt;
-                if supersampled && !pass.flag[k] {
+                if let Some(kept) = kept.filter(|_| !pass.flag[k]) {
                     // Recorded by the first pass.
-                    let from = if k == 0 { 0 } else { pixels.ends[k - 1] };
-                    for &(c, row, x) in &pixels.list[from..pixels.ends[k]] {
+                    let from = if k == 0 { 0 } else { kept.ends[k - 1] };
+                    for &(c, row, x) in &kept.list[from..kept.ends[k]] {
                         acc.push(c, row, x);
                     }
-                    continue;
+                    return 0;
                 }
                 // (direction, share of the pixel, footprint) of each ray direction.
                 let dirs: Vec<([f64; 3], f64, f64)> = if pass.flag[k] {
@@ -1017,6 +1060,7 @@ impl Tracer<'_> {
                 } else {
                     vec![(pix.dir, 1.0, v.footprint)]
                 };
+                let mut steps = 0;
                 for (d, share, fp) in dirs {
                     self.for_samples(&v, d, pix.entry, w, |ray, e, inv| {
                         // (A share of 1 leaves the products bitwise those of the
@@ -1028,16 +1072,43 @@ impl Tracer<'_> {
                         steps += self.trace_into(ray, fp, false, &mut sink);
                     });
                 }
-            }
-        }
-        let scale = if norm > 0.0 {
-            let edge = v.size as f64 * self.scene.voxel;
-            v.total_weight / norm * edge * edge
-        } else {
-            0.0
-        };
+                steps
+            },
+        );
         acc.drain_sorted(scale, out);
         steps
+    }
+
+    /// The supersampled entry radiances of pixel `k` of frustum `f` (a map of side `n`,
+    /// entry faces `entry`, collision weights `w`): `s²` sub-pixel rays in a correlated
+    /// multi-jittered pattern, each weighted by the gnomonic Jacobian
+    /// ([`sub_pixels`]), the pixel keeping its collision weights. Returns them and the
+    /// cells composited.
+    #[allow(clippy::too_many_arguments)] // reason: one pixel's coordinates and weights
+    fn supersampled(
+        &self,
+        v: &ReceiverView,
+        f: usize,
+        k: usize,
+        n: usize,
+        entry: [u8; 3],
+        w: [f64; 3],
+        s: usize,
+    ) -> ([[f64; 3]; 3], u64) {
+        let mut sum = [[0.0; 3]; 3];
+        let mut wsum = 0.0;
+        let mut steps = 0;
+        for (d, ws) in sub_pixels(f, k % n, k / n, n, s) {
+            let (l, st) = self.radiances(v, d, entry, w, v.footprint / s as f64, None);
+            steps += st;
+            for e in 0..3 {
+                for ch in 0..3 {
+                    sum[e][ch] += ws * l[e][ch];
+                }
+            }
+            wsum += ws;
+        }
+        (sum.map(|e| e.map(|x| x / wsum)), steps)
     }
 
     fn gather_one(
@@ -1049,65 +1120,29 @@ impl Tracer<'_> {
     ) -> (FaceRgb, u64) {
         let v = self.receiver_view(r, map);
         let n = map.side;
+        let s = aa.subdivisions as usize;
         let mut acc = [[0.0; 3]; 6];
-        let mut norm = 0.0;
-        let mut steps = 0;
-        let mut pass = FacePass::new(n);
-        for f in 0..6 {
-            let face = &map.pixels[f * n * n..(f + 1) * n * n];
-            steps += self.centre_pass(&v, face, collision, aa, true, &mut pass, None);
-            let s = aa.subdivisions as usize;
-            for k in 0..n * n {
-                if !pass.flag[k] {
-                    continue;
-                }
-                // s² sub-samples in a correlated multi-jittered pattern, each
-                // weighted by the gnomonic Jacobian ([`sub_pixels`]); the pixel keeps
-                // its collision weights.
-                let mut sum = [[0.0; 3]; 3];
-                let mut wsum = 0.0;
-                for (d, w) in sub_pixels(f, k % n, k / n, n, s) {
-                    let (l, st) = self.radiances(
-                        &v,
-                        d,
-                        face[k].entry,
-                        pass.weights[k],
-                        v.footprint / s as f64,
-                        None,
-                    );
-                    steps += st;
-                    for e in 0..3 {
-                        for ch in 0..3 {
-                            sum[e][ch] += w * l[e][ch];
-                        }
-                    }
-                    wsum += w;
-                }
-                pass.rad[k] = sum.map(|e| e.map(|x| x / wsum));
-            }
-            for (k, pix) in face.iter().enumerate() {
+        let (scale, steps) =
+            self.walk_pixels(&v, map, collision, aa, true, None, |f, k, pix, pass, _| {
                 let w = pass.weights[k];
-                let wt = w[0] + w[1] + w[2];
-                if wt <= 0.0 {
-                    continue;
-                }
-                norm += pix.solid_angle * wt;
+                let (rad, steps) = if pass.flag[k] {
+                    self.supersampled(&v, f, k, n, pix.entry, w, s)
+                } else {
+                    (pass.rad[k], 0)
+                };
                 for e in 0..3 {
                     let fi = pix.entry[e] as usize;
                     let sw = pix.solid_angle * w[e];
                     for ch in 0..3 {
-                        acc[fi][ch] += sw * pass.rad[k][e][ch];
+                        acc[fi][ch] += sw * rad[e][ch];
                     }
                 }
-            }
-        }
-        if norm > 0.0 {
-            let edge = v.size as f64 * self.scene.voxel;
-            let scale = v.total_weight / norm * edge * edge;
-            for f in &mut acc {
-                for x in f.iter_mut() {
-                    *x *= scale;
-                }
+                steps
+            });
+        // (With no colliding pixel `acc` is zero and so is `scale`.)
+        for f in &mut acc {
+            for x in f.iter_mut() {
+                *x *= scale;
             }
         }
         (acc, steps)

@@ -49,6 +49,7 @@ pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
         linear_method,
         max_iterations: a.max_iterations,
         tolerance: a.tolerance.unwrap_or(1e-6),
+        cluster: a.cluster,
         ..SolverConfig::default()
     };
     cfg.validate().context("invalid solver option")?;
@@ -75,6 +76,7 @@ impl Method for Gather {
             tolerance: Some(c.tolerance),
             visibility: Some(name_of(self.visibility)),
             quad: Some(c.quad_points),
+            cluster: c.cluster,
             ..base
         }
     }

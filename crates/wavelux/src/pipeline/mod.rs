@@ -264,6 +264,7 @@ fn base_info(a: &SolveArgs, threads: usize) -> report::MethodInfo {
         tolerance: None,
         visibility: None,
         quad: None,
+        cluster: None,
         convergence: None,
         max_shots: None,
         meshless: None,

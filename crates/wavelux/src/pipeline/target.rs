@@ -61,6 +61,12 @@ pub fn plan(a: &SolveArgs, target: f64) -> anyhow::Result<Box<dyn Method>> {
             bail!("--target-error applies to --method gather, not to shooting (--solver southwell)")
         }
     };
+    if a.cluster.is_some() {
+        bail!(
+            "--cluster applies to one fixed-threshold refinement (--eps, --oracle or \
+             --max-level): the error estimate of --target-error does not see cluster links yet"
+        );
+    }
     let mut cfg = TargetConfig {
         target,
         basis: a.basis.map(basis_kind),

@@ -105,6 +105,7 @@ fn record_statistics(sol: &Solution, stats: &mut report::Statistics) {
     stats.elements = st.elements;
     stats.leaves = st.leaves;
     stats.links = st.links;
+    stats.cluster_links = st.cluster_links;
     stats.refined_links = st.refined_links;
     stats.oracle_evaluations = st.oracle_evals;
     stats.kernel_evaluations = st.kernel_evals;

@@ -16,11 +16,11 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
 use std::time::Duration;
-use wavelux::volume::TraversalCell;
-use wavelux::volume::VolumeGrid;
-use wavelux::volume::backend::cpu::{AntiAlias, CpuProjector, Projection};
-use wavelux::volume::backend::{Emission, FaceRgb, ProjectionScene, Projector, Receiver};
-use wavelux::volume::cell::{Collision, depth_of, total_weight};
+use wavelux_volume::TraversalCell;
+use wavelux_volume::VolumeGrid;
+use wavelux_volume::backend::cpu::{AntiAlias, CpuProjector, Projection};
+use wavelux_volume::backend::{Emission, FaceRgb, ProjectionScene, Projector, Receiver};
+use wavelux_volume::cell::{Collision, depth_of, total_weight};
 
 /// Bytes one composite reads: the cell record and one face's three f64 coefficients.
 const BYTES_PER_COMPOSITE: u64 = (std::mem::size_of::<TraversalCell>() + 3 * 8) as u64;
@@ -37,7 +37,7 @@ struct Grid {
 /// `gc-lounge-32` as one traversal cell per voxel, emitting its source (any values
 /// cost the same).
 fn lounge() -> Grid {
-    let scene = wavelux::scene::builtin::builtin("gc-lounge-32").expect("gc-lounge-32 is built in");
+    let scene = wavelux_scene::builtin::builtin("gc-lounge-32").expect("gc-lounge-32 is built in");
     let g = VolumeGrid::from_medium(&scene.media[0]).expect("valid medium");
     let side = g.side;
     let mut cells = Vec::with_capacity(side * side * side);
