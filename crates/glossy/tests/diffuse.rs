@@ -12,9 +12,11 @@
 //! The same box isolates the root links' own quadrature (session 28): with only the
 //! floor reflecting, the `V⁰` solution has no discretisation error (the light is
 //! constant), so the floor's root `φ` with converged transport must give the exact
-//! mean. It does (+0.20 % at `n` = 8): the full box's `V⁰` floor (+2.1 %) is the
+//! mean. It does (+0.23 % at `n` = 8): the full box's `V⁰` floor (+2.1 %) is the
 //! piecewise-constant discretisation, and the Haar solver's −1.3 % at level 0 is its
-//! 3 × 3 Gauss rule across the blocks' shadows (−5.4 % in this box).
+//! 3 × 3 Gauss rule across the blocks' shadows (−5.33 % in this box). The box is
+//! `docs/scenes/cornell-floor-only.toml`; the numbers and commands are in
+//! docs/architecture.md ("The two `V⁰` floors agree once both are integrated").
 
 use glam::DVec3;
 use wavelux_glossy::*;
@@ -160,7 +162,7 @@ fn converged_root_links_give_the_floors_exact_mean() {
         let err = got[c] / want[c] - 1.0;
         // The 1 % for the diffuse limit. Measured on the same box with the
         // release CLI against the tracer (2²⁰ paths, σ 0.10 %): n = 2 / 4 / 8 give
-        // +8.75 / +1.89 / +0.20 %.
+        // +8.77 / +1.92 / +0.23 %.
         assert!(
             err.abs() < 0.01,
             "channel {c}: {} vs {} ({:+.2} %)",
