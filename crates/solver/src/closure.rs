@@ -12,9 +12,11 @@
 //! discrete operator then has a spectral radius above one and Picard diverges at
 //! deeper levels, and `1/(1 − ρ)` amplifies the excess in a white furnace.
 //!
-//! Where a link's pieces are planar polygons the leaf's exact unoccluded share is
-//! known, `∫_i φ_a(x) F(x → E) dA` (Lambert's point-to-polygon form factor at the
-//! leaf's Gauss points), and so is the link's unoccluded column that is pushed down to
+//! Where a link's pieces have an exact form ([`crate::exact`]: planar polygons, disk
+//! nodes, curved nodes facing each other, and nested nodes on a concave side such as a
+//! tube's inside seeing itself) the leaf's exact unoccluded share is
+//! known, `∫_i φ_a(x) F(x → E) dA` (Lambert's point-to-polygon form factor, or its
+//! contour form, at the leaf's Gauss points), and so is the link's unoccluded column that is pushed down to
 //! it. The defect `δ_i` (exact minus pushed, times the link's visible fraction `α`, see
 //! [`crate::TransferCtx::block`]; below a link whose shadow rays disagreed,
 //! [`crate::transfer::LinkVisibility::Partial`], the leaf's constant entry instead
@@ -22,7 +24,9 @@
 //! block quadrature of the pair `(i, E)`; summed over the links of `i` and its
 //! ancestors) is
 //! returned to the leaf as a reciprocal *closure
-//! link* from the leaf to itself with the symmetric block
+//! link* from the leaf to itself (marked [`LinkVisibility::Closure`]: on a curved
+//! support it sits beside the leaf's own transfer self link, if any) with the
+//! symmetric block
 //! `C = (δ e₀ᵀ + e₀ δᵀ − δ₀ e₀ e₀ᵀ)/√|i|`, which maps the leaf's unit radiosity
 //! `√|i| e₀` to `δ_i`. The corrected operator sends a unit radiosity field to exactly
 //! the row sums of its links, which are `≤ 1` (a sum of point form factors to disjoint
@@ -101,11 +105,15 @@ type Fresh = (
     Vec<LeafKey>,
 );
 
-/// Whether `l` is a closure link: a node linked to itself on a planar support (a plane
-/// sees none of itself, so no transfer link is ever such a pair). Refinement must drop
-/// these before splitting (they are rebuilt with every compiled hierarchy).
+/// Whether `l` is a closure link: a node linked to itself and marked
+/// [`LinkVisibility::Closure`], or any node linked to itself on a planar support (a
+/// plane sees none of itself, so no transfer link is ever such a pair; a curved node's
+/// transfer self link and its closure link share their nodes and differ by the mark).
+/// Refinement must drop these before splitting (they are rebuilt with every compiled
+/// hierarchy).
 pub fn is_closure_link(patches: &[crate::support::Patch], l: &LinkRec) -> bool {
-    l.r == l.e && patches[l.r.patch as usize].support.is_planar()
+    l.r == l.e
+        && (l.seen == LinkVisibility::Closure || patches[l.r.patch as usize].support.is_planar())
 }
 
 /// The closure of a compiled hierarchy: its links and the emitted part of its defects.
@@ -122,9 +130,8 @@ pub struct Closure {
 }
 
 /// The closure of the links `links` compiled into `h` (see the module docs). Links
-/// without exact pieces (masked curved supports, trims with arcs crossing a node) and
-/// links into curved receivers (whose closure link would coincide with a curved node's
-/// self link) contribute no defect.
+/// without exact pieces (masked curved supports, trims with arcs crossing a node, the
+/// convex side of a curved support against itself) contribute no defect.
 pub fn closure_links(ctx: &TransferCtx<'_>, h: &Hierarchy, links: &[LinkRec]) -> Closure {
     closure_links_cached(ctx, h, links, &mut ClosureCache::new())
 }
@@ -152,11 +159,6 @@ pub fn closure_links_cached(
             let (Some(ri), Some(_)) = (node_of(&l.r), node_of(&l.e)) else {
                 return (out, fresh);
             };
-            // Curved receivers keep their links' exact blocks but get no closure
-            // link: it would coincide with a curved node's own self link.
-            if !ctx.patches[l.r.patch as usize].support.is_planar() {
-                return (out, fresh);
-            }
             let (rr, er) = (l.r.region(), l.e.region());
             let Some((pr, pe)) = ctx.exact_pieces(&rr, &er) else {
                 return (out, fresh);
@@ -342,7 +344,7 @@ pub fn closure_links_cached(
             r: *k,
             e: *k,
             block,
-            seen: LinkVisibility::Unknown,
+            seen: LinkVisibility::Closure,
         });
     }
     Closure { links: out, source }

@@ -1040,10 +1040,11 @@ fn transport(sol: &Solution, l: usize, m: &[f64], points: usize) -> Vec<[f64; 3]
 
 /// Whether link `l`'s fine transport is integrated with shadow rays, and whether it
 /// carries any: a link whose block saw every ray unblocked is integrated unoccluded,
-/// one whose block saw every ray blocked carries nothing (see [`LinkVisibility`]).
+/// one whose block saw every ray blocked carries nothing (see [`LinkVisibility`]),
+/// nor does a closure link (its block is a row-sum correction, not a transfer).
 fn link_rays(fine: &Fine<'_>, sol: &Solution, l: usize) -> Option<bool> {
     match sol.system.h.link_seen[l] {
-        LinkVisibility::Blocked => None,
+        LinkVisibility::Blocked | LinkVisibility::Closure => None,
         LinkVisibility::Visible => Some(false),
         _ => Some(fine.vis),
     }

@@ -103,6 +103,9 @@ pub enum LinkVisibility {
     /// link not made by [`TransferCtx::block_seen`]).
     #[default]
     Unknown,
+    /// Not a transfer link: a leaf's closure link to itself ([`crate::closure`]),
+    /// which carries its row-sum defect and no transport of its own.
+    Closure,
 }
 
 /// `G(x, y) = max(0, cosθ_x) max(0, cosθ_y) / (π r²)`.

@@ -14,6 +14,9 @@ use wavelux_scene::builtin::{cornell_box, white_furnace};
 use wavelux_scene::{Material, Rgb, Scene, Shape, Sidedness, Surface};
 use wavelux_solver::{BasisKind, LinearMethod, Solution, SolverConfig, solve};
 
+#[path = "support/rows.rs"]
+mod rows;
+
 fn config(basis: BasisKind, level: u8, method: LinearMethod) -> SolverConfig {
     SolverConfig {
         basis,
@@ -127,33 +130,11 @@ fn picard_and_gauss_seidel_converge_at_rho_0_999() {
     }
 }
 
-/// Unit radiosity on every leaf (coefficient `√area` on the constant function).
-fn ones(sol: &Solution) -> Vec<f64> {
-    let sys = sol.system();
-    let n = sys.hierarchy().n();
-    let mut x = vec![0.0; sys.dim()];
-    for (l, &i) in sys.hierarchy().leaves().iter().enumerate() {
-        x[l * n] = sys.node_area[i as usize].sqrt();
-    }
-    x
-}
-
-/// Largest and smallest leaf row sum (irradiance from unit radiosity everywhere) of
-/// the leaves that receive.
+/// Largest and smallest leaf row sum of the leaves that receive.
 fn row_sums(sol: &Solution) -> (f64, f64) {
-    let sys = sol.system();
-    let n = sys.hierarchy().n();
-    let irr = sys.irradiance(&ones(sol));
-    let (mut hi, mut lo) = (f64::MIN, f64::MAX);
-    for (l, &i) in sys.hierarchy().leaves().iter().enumerate() {
-        if sys.leaf_rho[l].iter().all(|&r| r == 0.0) {
-            continue;
-        }
-        let f = irr[l * n] / sys.node_area[i as usize].sqrt();
-        hi = hi.max(f);
-        lo = lo.min(f);
-    }
-    (hi, lo)
+    (rows::leaf_rows(sol).iter()).fold((f64::MIN, f64::MAX), |(hi, lo), &(_, f)| {
+        (hi.max(f), lo.min(f))
+    })
 }
 
 #[test]
@@ -174,7 +155,7 @@ fn leaf_row_sums_are_one_in_a_closed_box() {
 /// non-negative operator is real and positive; 300 steps on a positive start vector).
 fn spectral_radius(sol: &Solution, ch: usize) -> f64 {
     let sys = sol.system();
-    let mut x = ones(sol);
+    let mut x = rows::ones(sol);
     let mut y = vec![0.0; x.len()];
     let mut lambda = 0.0;
     for _ in 0..300 {
