@@ -881,11 +881,13 @@ impl<'a> TransferCtx<'a> {
         let rule = if !emitter_full {
             None
         } else if pr.support.is_affine() && pe.support.is_affine() {
-            self.singular_rule(pr, rs, pe, es, rad_r.max(rad_e))
+            let rc = pr.support.corners(rs.s0, rs.t0, rs.h);
+            let ec = pe.support.corners(es.s0, es.t0, es.h);
+            self.touching_rule(&rc, &ec, (rad_r, rad_e))
         } else if rs.patch == es.patch && !pr.support.is_planar() {
             self.param_rule(rs, es)
         } else {
-            self.mapped_rule(pr, rs, pe, es, rad_r.max(rad_e))
+            self.mapped_rule(pr, rs, pe, es, (rad_r, rad_e))
         };
         if let Some(rule) = rule {
             let with_vis = with_vis && self.shaft_open(rs, es, cands);
@@ -1002,11 +1004,11 @@ impl<'a> TransferCtx<'a> {
         rs: &Region,
         pe: &Patch,
         es: &Region,
-        size: f64,
+        radii: (f64, f64),
     ) -> Option<&RuleNd> {
         let rc = pr.support.corners(rs.s0, rs.t0, rs.h);
         let ec = pe.support.corners(es.s0, es.t0, es.h);
-        let tol = 1e-9 * size;
+        let tol = 1e-9 * radii.0.max(radii.1);
         let shared: Vec<(usize, usize)> = (0..4)
             .flat_map(|i| (0..4).map(move |j| (i, j)))
             .filter(|&(i, j)| (rc[i] - ec[j]).length() <= tol)
@@ -1021,28 +1023,24 @@ impl<'a> TransferCtx<'a> {
                 return None;
             }
         }
-        self.singular_rule(pr, rs, pe, es, size)
+        self.touching_rule(&rc, &ec, radii)
     }
 
     /// The singular rule for touching sub-squares (affine ones, or curved ones whose
-    /// shared edge [`Self::mapped_rule`] checked), if they share exactly a full edge or,
-    /// same size, exactly one corner.
-    fn singular_rule(
+    /// shared edge [`Self::mapped_rule`] checked) with corners `rc`, `ec` (their
+    /// images, order `(0,0), (1,0), (1,1), (0,1)`) and bounding-sphere radii `radii`,
+    /// if they share exactly a full edge or, same size, exactly one corner (within
+    /// `1e-9` of the larger radius). Each caller maps the corners once.
+    fn touching_rule(
         &self,
-        pr: &Patch,
-        rs: &Region,
-        pe: &Patch,
-        es: &Region,
-        size: f64,
+        rc: &[DVec3; 4],
+        ec: &[DVec3; 4],
+        (a, b): (f64, f64),
     ) -> Option<&RuleNd> {
-        let rc = pr.support.corners(rs.s0, rs.t0, rs.h);
-        let ec = pe.support.corners(es.s0, es.t0, es.h);
         // Same-size squares only for a shared corner (otherwise a partial edge may be
         // shared).
-        let (_, a) = pr.support.bounding_sphere(rs.s0, rs.t0, rs.h);
-        let (_, b) = pe.support.bounding_sphere(es.s0, es.t0, es.h);
         let same = (a - b).abs() <= 1e-6 * a.max(b);
-        self.rule_for_corners(&rc, &ec, 1e-9 * size, same)
+        self.rule_for_corners(rc, ec, 1e-9 * a.max(b), same)
     }
 
     /// The edge or vertex rule for squares whose corners `rc`, `ec` (order `(0,0),

@@ -651,17 +651,8 @@ fn teapot_crease_keeps_the_operator_contractive() {
     };
     let sol = solve(&scene, &cfg).unwrap();
     let sys = sol.system();
-    let h = sys.hierarchy();
-    let n = h.n();
-    let mut x = vec![0.0; sys.dim()];
-    for (l, &i) in h.leaves().iter().enumerate() {
-        x[l * n] = sys.node_area[i as usize].sqrt();
-    }
-    let irr = sys.irradiance(&x);
-    let mut hi: f64 = 0.0;
-    for (l, &i) in h.leaves().iter().enumerate() {
-        hi = hi.max(irr[l * n] / sys.node_area[i as usize].sqrt());
-    }
+    let mut x = rows::ones(&sol);
+    let hi = (rows::leaf_rows(&sol).iter()).fold(0.0f64, |a, &(_, f)| a.max(f));
     // Power iteration on a positive start, growth over the last 100 of 200 steps.
     let rho = sol
         .patches
