@@ -684,8 +684,9 @@ fn teapot_crease_keeps_the_operator_contractive() {
 
 /// A concave node against itself or a nested node (crate::exact's `nested_constant`):
 /// `∫_S ∫_N G = |S| − (1/2π)|∮_{∂S} ∮_{∂N} ln r|`. Inside a sphere every point sees a
-/// region by its area fraction, so `∫_S ∫_N G = |S| |N| / (4π R²)` for every cell and
-/// every nested pair (levels 0–3, poles and seam included); the inside of a closed
+/// region by its area fraction, so `∫_S ∫_N G = |S| |N| / (4π R²)` for a cell with
+/// itself and with its first child (three cells per level 0–3, poles and seam
+/// included); the inside of a closed
 /// cylinder's tube (level 0, whose boundary is the two rims) sees itself by
 /// `1 − 2 F(tube → disk)` (coaxial disks' closed form). The outside of the sphere
 /// (convex) has no such form. Before, these pairs had no exact form and took the
@@ -720,7 +721,13 @@ fn concave_nested_pairs_match_closed_forms() {
     };
     let mut worst: f64 = 0.0;
     for level in 0..=3u32 {
-        for c in 0..1usize << (2 * level) {
+        // Per level a pole-and-seam corner cell, the opposite one, and one at the
+        // equator away from the seam (every cell of levels 0–3: the same worst error,
+        // 1.6e-6, at 16 s CPU instead of 2).
+        let k = 1usize << level;
+        let mut picks = vec![0, k * k - 1, (k / 2) * k + k / 2];
+        picks.dedup();
+        for c in picks {
             let g = cell(inside, level, c);
             let pg = piece(&ps.patches[inside], &g, false).unwrap();
             let ag = ps.patches[inside].support.area * g.h * g.h;
