@@ -29,9 +29,22 @@
 //! its visibility sampling). This is the "next level the oracle would add" measured
 //! rather than bounded; [`crate::target`] refines the links with the largest `η_l`.
 //!
+//! On links whose transport is not smooth over the pair (near or partly visible
+//! pairs, whose leaves are evaluated in detail) and whose emitter node is split, the
+//! fine gather integrates the emitter's own finer radiosity, projected on each of its
+//! pieces (the node's descendants' pulled coefficients, or the covering leaf's
+//! polynomial), not the node's pulled coefficients that the link transports: the
+//! difference is the link's averaging of its emitter, which only such a link can get
+//! wrong by much (where the kernel is smooth it is second order). On the Cornell glTF
+//! (one node per face) the pulled coefficients made the estimate blind to the block
+//! faces' bias from the floor next to them: short_block.3's mean was 5.1 % too bright
+//! in blue while the estimate said 0.2 %; the same solution estimated with the
+//! emitters' leaves says 5.1 % (session 28, docs/performance.md). Those links'
+//! transport depends on the solution and is not cached.
+//!
 //! What the estimate does not see: the error of representing the emitter's radiosity
-//! by its pulled coefficients on `E` (the finer leaves under `E` are averaged, as the
-//! link averages them), transport that no link carries (pairs dropped as not facing,
+//! by its pulled coefficients on `E` on the other links (the finer leaves under `E`
+//! are averaged, as the link averages them), transport that no link carries (pairs dropped as not facing,
 //! where the kernel vanishes), and errors of the fine quadrature itself (shadow
 //! boundaries sampled by `q²` rays per point and piece, or resolved to one emitter
 //! cell per point). Norms are over real points
@@ -416,6 +429,42 @@ struct Fine<'a> {
     vis: bool,
 }
 
+/// What [`Fine::gather`] integrates against on each emitter piece.
+#[derive(Clone, Copy)]
+enum Emit<'s> {
+    /// Moments `∫ G V φ_b dA` against the functions `φ_b` of the link's emitter node
+    /// (independent of the solution; the link's pulled coefficients make them its
+    /// transport).
+    Moments,
+    /// The transport `∫ G V B_h dA` per channel with the solution's radiosity on each
+    /// piece projected onto the piece's own functions (`P_piece B_h`: the pulled
+    /// coefficients of the node at the piece, or the covering leaf's polynomial below
+    /// the leaves): the radiosity the link's emitter averages, seen as finely as the
+    /// pieces resolve it. `node` is the deepest node of `sol`'s hierarchy containing
+    /// the piece.
+    Values { sol: &'s Solution, node: u32 },
+}
+
+impl Emit<'_> {
+    /// The emitter function on child `c` of the piece `es` ([`Region::split`] order,
+    /// that of the hierarchy's children).
+    fn child(self, es: &Region, c: usize) -> Self {
+        match self {
+            Emit::Values { sol, node } => {
+                let h = &sol.system.h;
+                let ch = h.children[node as usize];
+                let at_node = h.keys[node as usize].region().h == es.h;
+                if at_node && ch[0] != u32::MAX {
+                    Emit::Values { sol, node: ch[c] }
+                } else {
+                    self
+                }
+            }
+            Emit::Moments => self,
+        }
+    }
+}
+
 impl Fine<'_> {
     /// `∫_piece G V φ_b dA` for a receiver point and every emitter function `b` of the
     /// node's orthonormal basis `φ = ψ/√A_node`, accumulated into `out[b]`; shadow
@@ -431,6 +480,7 @@ impl Fine<'_> {
         pe: &Patch,
         en: &Region,
         es: &Region,
+        emit: Emit<'_>,
         shaft: (&Region, Option<&[u32]>),
         depth: u32,
         vdepth: u32,
@@ -451,13 +501,14 @@ impl Fine<'_> {
         let near = (pt.x - c).length() < self.near * rad;
         let split_partial = cov == Coverage::Partial && depth < 3;
         if (near || split_partial) && depth < self.max_depth {
-            for b in es.split() {
+            for (c, b) in es.split().iter().enumerate() {
                 self.gather(
                     pt,
                     pr,
                     pe,
                     en,
-                    &b,
+                    b,
+                    emit.child(es, c),
                     shaft,
                     depth + 1,
                     vdepth,
@@ -513,23 +564,38 @@ impl Fine<'_> {
                     tally.visible += 1;
                     seen = true;
                 }
-                let f = w * g * inv;
-                basis.eval((u - en.s0) / en.h, (v - en.t0) / en.h, &mut phi[..n]);
-                for b in 0..n {
-                    acc[b] += f * phi[b];
+                match emit {
+                    Emit::Moments => {
+                        let f = w * g * inv;
+                        basis.eval((u - en.s0) / en.h, (v - en.t0) / en.h, &mut phi[..n]);
+                        for b in 0..n {
+                            acc[b] += f * phi[b];
+                        }
+                    }
+                    Emit::Values { sol, node } => {
+                        let sys = &sol.system;
+                        let fr = sys.h.keys[node as usize].region();
+                        let f = w * g / sys.node_area[node as usize].sqrt();
+                        basis.eval((u - fr.s0) / fr.h, (v - fr.t0) / fr.h, &mut phi[..n]);
+                        for (c, a) in acc.iter_mut().take(3).enumerate() {
+                            let coef = &sol.node_b[c][node as usize * n..][..n];
+                            *a += f * coef.iter().zip(&phi[..n]).map(|(x, y)| x * y).sum::<f64>();
+                        }
+                    }
                 }
             }
         }
         if seen && hidden && vdepth < self.vis_depth {
             // A shadow boundary crosses the piece: its q² rays resolve the visible
             // part only to ~1/q²; integrate the quarters instead.
-            for b in es.split() {
+            for (c, b) in es.split().iter().enumerate() {
                 self.gather(
                     pt,
                     pr,
                     pe,
                     en,
-                    &b,
+                    b,
+                    emit.child(es, c),
                     shaft,
                     depth + 1,
                     vdepth + 1,
@@ -801,10 +867,32 @@ fn gather_links(
         ));
         cache.links.insert(link_key(h, l), m);
     }
+    // Detailed links with a split emitter: their transport with the emitter's finer
+    // radiosity ([`Emit::Values`]), which depends on the solution (not cached).
+    let finer: Vec<Option<(Vec<[f64; 3]>, Tally)>> = links
+        .par_iter()
+        .map(|&l| {
+            let mom = &cache.links[&link_key(h, l)];
+            (mom.detailed && split_emitter(h, l)).then(|| {
+                let rk = h.keys[h.link_receiver[l] as usize];
+                let rp = leaf_points(&sol.patches[rk.patch as usize], &rk.region(), recv_rule);
+                let (v, t) = fine_at(fine, sol, l, &rk.region(), &rp, true);
+                (rgb(&v), t)
+            })
+        })
+        .collect();
     let mut detailed: Vec<(usize, usize)> = Vec::new();
-    for &l in links {
+    for (&l, finer) in links.iter().zip(finer) {
         let mom = &cache.links[&link_key(h, l)];
-        let (f, eta) = link_values(sol, l, mom, recv_rule);
+        let f = match finer {
+            Some((f, t)) => {
+                est.kernel_evals += t.evals;
+                est.rays += t.rays;
+                f
+            }
+            None => transport(sol, l, &mom.m, recv_rule.0.len().pow(2)),
+        };
+        let eta = indicator(sol, l, &f, recv_rule);
         est.link_error[l] = eta;
         est.detailed_links += u64::from(mom.detailed);
         let r = h.link_receiver[l] as usize;
@@ -847,23 +935,42 @@ fn gather_detailed(
     let missing: Vec<(usize, usize)> = detailed
         .iter()
         .copied()
-        .filter(|&(l, li)| !cache.leaves.contains_key(&leaf_key(l, li)))
+        .filter(|&(l, li)| !split_emitter(h, l) && !cache.leaves.contains_key(&leaf_key(l, li)))
+        .collect();
+    // Pairs under a split emitter: the transport of its finer radiosity (not cached).
+    let finer: Vec<Option<(Vec<[f64; 3]>, Tally)>> = detailed
+        .par_iter()
+        .map(|&(l, li)| {
+            split_emitter(h, l).then(|| {
+                let leaf = h.keys[h.leaves[li] as usize].region();
+                let (v, t) = fine_at(fine, sol, l, &leaf, &pts[li], true);
+                (rgb(&v), t)
+            })
+        })
         .collect();
     let extra: Vec<(Vec<f64>, Tally)> = missing
         .par_iter()
         .map(|&(l, li)| {
             let leaf = h.keys[h.leaves[li] as usize].region();
-            fine_at(fine, sol, l, &leaf, &pts[li])
+            fine_at(fine, sol, l, &leaf, &pts[li], false)
         })
         .collect();
     for (&(l, li), (m, t)) in missing.iter().zip(extra) {
         used.tally.add(&t);
         cache.leaves.insert(leaf_key(l, li), m);
     }
-    for &(l, li) in detailed {
-        let k = leaf_key(l, li);
-        used.leaves.insert(k);
-        let v = transport(sol, l, &cache.leaves[&k], pts[li].len());
+    for (&(l, li), finer) in detailed.iter().zip(finer) {
+        let v = match finer {
+            Some((v, t)) => {
+                used.tally.add(&t);
+                v
+            }
+            None => {
+                let k = leaf_key(l, li);
+                used.leaves.insert(k);
+                transport(sol, l, &cache.leaves[&k], pts[li].len())
+            }
+        };
         for (acc, f) in hf[li].iter_mut().zip(&v) {
             (0..3).for_each(|c| acc[c] += f[c]);
         }
@@ -1059,9 +1166,20 @@ fn fine_at(
     l: usize,
     cell: &Region,
     pts: &[Point],
+    values: bool,
 ) -> (Vec<f64>, Tally) {
     let h = &sol.system.h;
-    let n = h.n;
+    let (n, emit) = if values {
+        (
+            3,
+            Emit::Values {
+                sol,
+                node: h.link_emitter[l],
+            },
+        )
+    } else {
+        (h.n, Emit::Moments)
+    };
     let mut tally = Tally::default();
     let Some(vis) = link_rays(fine, sol, l) else {
         return (Vec::new(), tally);
@@ -1085,6 +1203,7 @@ fn fine_at(
             pe,
             &ereg,
             &ereg,
+            emit,
             (cell, cands.as_deref()),
             0,
             0,
@@ -1107,7 +1226,7 @@ fn link_moments(fine: &Fine<'_>, sol: &Solution, l: usize, rule: &Rule) -> (Mome
     let ek = h.keys[h.link_emitter[l] as usize];
     let pe = &sol.patches[ek.patch as usize];
     let pts = leaf_points(pr, &rreg, rule);
-    let (m, tally) = fine_at(fine, sol, l, &rreg, &pts);
+    let (m, tally) = fine_at(fine, sol, l, &rreg, &pts, false);
     let (cr, rr) = pr.support.bounding_sphere(rreg.s0, rreg.t0, rreg.h);
     let ereg = ek.region();
     let (ce, re) = pe.support.bounding_sphere(ereg.s0, ereg.t0, ereg.h);
@@ -1117,9 +1236,9 @@ fn link_moments(fine: &Fine<'_>, sol: &Solution, l: usize, rule: &Rule) -> (Mome
     (Moments { m, detailed }, tally)
 }
 
-/// The fine transport of link `l` at its receiver's residual points (from its
-/// moments) and its indicator `η_l = ∫_R ρ Σ_c |Δ_c|`.
-fn link_values(sol: &Solution, l: usize, mom: &Moments, rule: &Rule) -> (Vec<[f64; 3]>, f64) {
+/// The indicator `η_l = ∫_R ρ Σ_c |Δ_c|` of link `l` from its fine transport `f` at
+/// its receiver's residual points.
+fn indicator(sol: &Solution, l: usize, f: &[[f64; 3]], rule: &Rule) -> f64 {
     let sys = &sol.system;
     let h = &sys.h;
     let n = h.n;
@@ -1128,12 +1247,11 @@ fn link_values(sol: &Solution, l: usize, mom: &Moments, rule: &Rule) -> (Vec<[f6
     let rreg = h.keys[r].region();
     let pr = &sol.patches[h.keys[r].patch as usize];
     let pts = leaf_points(pr, &rreg, rule);
-    let f = transport(sol, l, &mom.m, pts.len());
     let (_, tb) = link_parts(sol, l);
     let rinv = 1.0 / sys.node_area[r].sqrt();
     let mut psi = [0.0; 16];
     let mut eta = 0.0;
-    for (pt, fv) in pts.iter().zip(&f) {
+    for (pt, fv) in pts.iter().zip(f) {
         basis.eval(
             (pt.s - rreg.s0) / rreg.h,
             (pt.t - rreg.t0) / rreg.h,
@@ -1144,7 +1262,18 @@ fn link_values(sol: &Solution, l: usize, mom: &Moments, rule: &Rule) -> (Vec<[f6
             eta += pt.wr * pr.reflectance[c] * (fv[c] - d).abs();
         }
     }
-    (f, eta)
+    eta
+}
+
+/// Whether link `l`'s emitter node is split in the solution's hierarchy (its
+/// radiosity is finer than the node's own functions).
+fn split_emitter(h: &crate::hierarchy::Hierarchy, l: usize) -> bool {
+    h.children[h.link_emitter[l] as usize][0] != u32::MAX
+}
+
+/// Per-channel triples from a flat `[point · 3 + c]` vector.
+fn rgb(v: &[f64]) -> Vec<[f64; 3]> {
+    v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
 }
 
 /// Node indices of the leaves in the subtree of `node`.

@@ -83,7 +83,11 @@ pub struct TargetConfig {
 }
 
 impl Default for TargetConfig {
-    /// 1 %, the basis chosen, safety limit level 10, GMRES, 12 rounds, `θ = 0.5`.
+    /// 1 %, the basis chosen, safety limit level 10, GMRES, 12 rounds, `θ = 0.8`
+    /// (Cornell box, default target, release, one thread, side by side with main
+    /// 37e5401 at `θ = 0.5` and the estimate before its finer-emitter gather: 5 rounds,
+    /// 209 179 links, texel L1 0.856 %, 72.6 s CPU, against 8 rounds, 104 128 links,
+    /// 1.052 %, 65.3 s; docs/performance.md, "The per-face under-read").
     fn default() -> Self {
         Self {
             target: 0.01,
@@ -97,7 +101,7 @@ impl Default for TargetConfig {
             },
             face_target: None,
             max_rounds: 12,
-            bulk: 0.5,
+            bulk: 0.8,
             estimate: EstimateOptions::default(),
         }
     }
