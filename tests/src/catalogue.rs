@@ -132,17 +132,7 @@ pub fn default_settings() -> SolverConfig {
 /// # Panics
 /// If `surface` is out of range.
 pub fn lit_average(sol: &Solution, surface: usize) -> f64 {
-    let mut acc = 0.0;
-    let mut area = 0.0;
-    for &p in &sol.by_surface[surface] {
-        if !sol.patches[p].can_emit() {
-            continue;
-        }
-        let (v, a) = sol.patch_real_integral(p);
-        acc += v[0];
-        area += a;
-    }
-    acc / area
+    sol.lit_average(surface)[0]
 }
 
 // ---------------------------------------------------------------------------------

@@ -35,24 +35,8 @@ fn main() -> anyhow::Result<()> {
     }
     println!("supports: {affine} parallelograms, {triangle} triangles, {other} other");
     for (i, s) in scene.surfaces.iter().enumerate() {
-        let (mut acc, mut area) = ([0.0; 3], 0.0);
-        for &p in &sol.by_surface[i] {
-            if !sol.patches[p].can_emit() {
-                continue;
-            }
-            let (v, a) = sol.patch_real_integral(p);
-            for c in 0..3 {
-                acc[c] += v[c];
-            }
-            area += a;
-        }
-        println!(
-            "{:<14} {:.17e} {:.17e} {:.17e}",
-            s.name,
-            acc[0] / area,
-            acc[1] / area,
-            acc[2] / area
-        );
+        let m = sol.lit_average(i);
+        println!("{:<14} {:.17e} {:.17e} {:.17e}", s.name, m[0], m[1], m[2]);
     }
     Ok(())
 }

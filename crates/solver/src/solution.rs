@@ -405,6 +405,29 @@ impl Solution {
         acc.map(|v| v / area)
     }
 
+    /// Average radiosity (W/m², RGB) of a scene surface over the real area of every
+    /// patch that reflects or emits, whichever side it is on (the lit inside of a
+    /// closed curved surface is its back side): `Σ ∫_real B dA / Σ |real area|` from
+    /// [`Solution::patch_real_integral`]. NaN if no patch of the surface is lit.
+    ///
+    /// # Panics
+    /// If `surface` is out of range.
+    pub fn lit_average(&self, surface: usize) -> [f64; 3] {
+        let mut acc = [0.0; 3];
+        let mut area = 0.0;
+        for &p in &self.by_surface[surface] {
+            if !self.patches[p].can_emit() {
+                continue;
+            }
+            let (v, a) = self.patch_real_integral(p);
+            for c in 0..3 {
+                acc[c] += v[c];
+            }
+            area += a;
+        }
+        acc.map(|v| v / area)
+    }
+
     /// Leaf radiosity coefficients of one channel (the solver's unknowns).
     pub fn leaf_coefficients(&self, ch: usize) -> Vec<f64> {
         let n = self.system.h.n;

@@ -21,7 +21,7 @@ use wavelux::render::reference::{PathTracer, ReferenceOptions};
 use wavelux::scene::{
     GltfOptions, Scene, TessellateOptions, fixtures, load_gltf_slice, tessellated, to_glb,
 };
-use wavelux::solver::{Solution, TargetConfig, solve_to_target};
+use wavelux::solver::{TargetConfig, solve_to_target};
 
 use crate::report::{Report, Row, Table, Tolerance};
 use crate::reproduce::Ctx;
@@ -50,23 +50,6 @@ fn load() -> anyhow::Result<Scene> {
         None,
         &GltfOptions::default(),
     )?)
-}
-
-/// Real-area mean radiosity (RGB) of a surface's lit sides.
-fn mean_radiosity(sol: &Solution, surface: usize) -> [f64; 3] {
-    let mut acc = [0.0; 3];
-    let mut area = 0.0;
-    for &p in &sol.by_surface[surface] {
-        if !sol.patches[p].can_emit() {
-            continue;
-        }
-        let (v, a) = sol.patch_real_integral(p);
-        for c in 0..3 {
-            acc[c] += v[c];
-        }
-        area += a;
-    }
-    acc.map(|x| x / area)
 }
 
 /// Runs the reproduction.
@@ -135,7 +118,7 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             pilot
         };
         walks += est.samples;
-        let ours = mean_radiosity(&sol, i);
+        let ours = sol.lit_average(i);
         let err = [0, 1, 2].map(|c| (ours[c] - est.mean[c]) / est.mean[c]);
         let se = [0, 1, 2].map(|c| est.std_error[c] / est.mean[c]);
         let worst = err.iter().fold(0.0f64, |a, e| a.max(e.abs()));
