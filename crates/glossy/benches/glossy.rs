@@ -136,17 +136,21 @@ fn ward_cornell() -> wavelux_scene::Scene {
     scene
 }
 
-fn link(c: &mut Criterion<CpuTime>) {
-    let scene = ward_cornell();
-    let sol = GlossySolution::new(
-        &scene,
+/// The Ward Cornell box's glossy solution set up for `rounds` refinement rounds.
+fn ward_solution(rounds: usize) -> GlossySolution {
+    GlossySolution::new(
+        &ward_cornell(),
         "builtin:cornell-box",
         GlossyConfig {
-            rounds: 0,
+            rounds,
             ..GlossyConfig::default()
         },
     )
-    .expect("the Cornell box solves");
+    .expect("the Cornell box solves")
+}
+
+fn link(c: &mut Criterion<CpuTime>) {
+    let sol = ward_solution(0);
     let gs = &sol.scene;
     let tr = Transport::new(gs, sol.config.directions, sol.config.transport)
         .expect("valid transport options");
@@ -198,16 +202,7 @@ fn link(c: &mut Criterion<CpuTime>) {
 }
 
 fn sweep(c: &mut Criterion<CpuTime>) {
-    let scene = ward_cornell();
-    let mut sol = GlossySolution::new(
-        &scene,
-        "builtin:cornell-box",
-        GlossyConfig {
-            rounds: 1,
-            ..GlossyConfig::default()
-        },
-    )
-    .expect("the Cornell box solves");
+    let mut sol = ward_solution(1);
     sol.run(|_| {}).expect("one round");
     let links = sol.links.clone();
     let mut funcs = sol.funcs.clone();
@@ -233,16 +228,7 @@ fn sweep(c: &mut Criterion<CpuTime>) {
 }
 
 fn gather(c: &mut Criterion<CpuTime>) {
-    let scene = ward_cornell();
-    let sol = GlossySolution::new(
-        &scene,
-        "builtin:cornell-box",
-        GlossyConfig {
-            rounds: 0,
-            ..GlossyConfig::default()
-        },
-    )
-    .expect("the Cornell box solves");
+    let sol = ward_solution(0);
     // A point in the middle of the first reflecting patch, seen from straight above.
     let patch = (0..sol.scene.patches.len())
         .find(|&p| !sol.scene.patches[p].is_emitter() && !sol.scene.patches[p].is_eye())
