@@ -334,15 +334,181 @@ fn spectral_radius(sys: &wavelux::solver::System, ch: usize) -> f64 {
     (log_growth / k as f64).exp()
 }
 
+/// A level's spectral radius of `ρK` (the channel with the largest radius / max ρ).
+struct Radius {
+    leaves: usize,
+    links: usize,
+    radius: f64,
+    max_rho: f64,
+    ratio: f64,
+}
+
+/// One linear method on a level's system: the most iterations and the largest final
+/// relative residual over the channels.
+struct Iterated {
+    iterations: usize,
+    residual: f64,
+}
+
+/// What one scene at one level measured. Each part is the error's text where its
+/// solve failed (a failed assembly leaves all three without a value).
+struct Level {
+    radius: Result<Radius, String>,
+    picard: Result<Iterated, String>,
+    gauss_seidel: Result<Iterated, String>,
+    /// CPU seconds of the whole level (assembly, power method and both solves).
+    seconds: f64,
+}
+
+/// Assembles `scene` at `level` (default basis and ε; one GMRES iteration, whose
+/// solution is not used: the refinement of a one-stage solve does not depend on the
+/// linear method) and measures the spectral radius and Picard and Gauss–Seidel to
+/// `tol` from `x₀ = b` on that system, as [`solve`] would run them. Never fails: a
+/// failed solve is recorded in its part, so the report writes FAIL rows instead of
+/// stopping.
+fn measure_level(scene: &Scene, level: u8, tol: f64) -> Level {
+    use wavelux::solver::solve_channel;
+    let cfg = SolverConfig {
+        max_level: level,
+        max_iterations: 1,
+        ..default_settings()
+    };
+    let t0 = Stopwatch::start();
+    let sol = match solve(scene, &cfg) {
+        Ok(sol) => sol,
+        Err(e) => {
+            let why = format!("assembly solve failed: {e}");
+            return Level {
+                radius: Err(why.clone()),
+                picard: Err(why.clone()),
+                gauss_seidel: Err(why),
+                seconds: t0.elapsed().cpu_or_wall(),
+            };
+        }
+    };
+    let channels = if sol
+        .patches
+        .iter()
+        .all(|p| p.reflectance[0] == p.reflectance[1] && p.reflectance[1] == p.reflectance[2])
+    {
+        1
+    } else {
+        3
+    };
+    let mut radius = Radius {
+        leaves: sol.stats.leaves,
+        links: sol.stats.links,
+        radius: 0.0,
+        max_rho: 0.0,
+        ratio: 0.0,
+    };
+    for ch in 0..channels {
+        let rho = sol
+            .patches
+            .iter()
+            .map(|p| p.reflectance[ch])
+            .fold(0.0, f64::max);
+        let r = spectral_radius(sol.system(), ch);
+        if rho > 0.0 && r / rho >= radius.ratio {
+            (radius.ratio, radius.radius, radius.max_rho) = (r / rho, r, rho);
+        }
+    }
+    let iterate = |method: LinearMethod| -> Result<Iterated, String> {
+        let mut it = Iterated {
+            iterations: 0,
+            residual: 0.0,
+        };
+        for ch in 0..channels {
+            let (_, c) = solve_channel(sol.system(), ch, method, 5000, tol, None, None)
+                .map_err(|e| e.to_string())?;
+            it.iterations = it.iterations.max(c.iterations.len() - 1);
+            it.residual = it.residual.max(c.final_relative_residual);
+        }
+        Ok(it)
+    };
+    let picard = iterate(LinearMethod::Picard);
+    let gauss_seidel = iterate(LinearMethod::GaussSeidel);
+    Level {
+        radius: Ok(radius),
+        picard,
+        gauss_seidel,
+        seconds: t0.elapsed().cpu_or_wall(),
+    }
+}
+
+/// The table row and the report rows of one level. A part without a value gives a
+/// row whose value is NaN (a FAIL) with the error as its comment, and the error's text
+/// in the table.
+fn level_rows(name: &str, level: u8, m: &Level, tol: f64) -> (Vec<String>, Vec<Row>) {
+    let failed = |e: &String| format!("failed: {e}");
+    let iterated = |r: &Result<Iterated, String>| match r {
+        Ok(i) => format!("{} ({:.1e})", i.iterations, i.residual),
+        Err(e) => failed(e),
+    };
+    let mut cells = vec![name.to_string(), level.to_string()];
+    match &m.radius {
+        Ok(r) => cells.extend([
+            r.leaves.to_string(),
+            r.links.to_string(),
+            format!("{:.4}", r.radius),
+            format!("{:.3}", r.max_rho),
+            format!("{:.4}", r.ratio),
+        ]),
+        Err(e) => {
+            cells.push(failed(e));
+            cells.extend(std::iter::repeat_n(String::new(), 4));
+        }
+    }
+    cells.extend([
+        iterated(&m.picard),
+        iterated(&m.gauss_seidel),
+        format!("{:.1}", m.seconds),
+    ]);
+    let label = format!("contractive {name} level {level}");
+    let row = |what: &str, value: Result<f64, &String>, bound: f64| {
+        let r = Row::new(
+            format!("{label}: {what}"),
+            None,
+            *value.as_ref().unwrap_or(&f64::NAN),
+            "",
+            Tolerance::AtMost(bound),
+        );
+        match value {
+            Ok(_) => r,
+            Err(e) => r.comment(failed(e)),
+        }
+    };
+    // Equality holds in a closed enclosure of one reflectance (every row of K sums to
+    // one): the bound allows rounding there.
+    let rows = vec![
+        row(
+            "spectral radius of ρK / max ρ",
+            m.radius.as_ref().map(|r| r.ratio),
+            1.0 + 1e-9,
+        ),
+        row(
+            "Picard residual",
+            m.picard.as_ref().map(|i| i.residual),
+            tol,
+        ),
+        row(
+            "Gauss–Seidel residual",
+            m.gauss_seidel.as_ref().map(|i| i.residual),
+            tol,
+        ),
+    ];
+    (cells, rows)
+}
+
 /// Issue 11 §1/§4: on every built-in scene, at the command's default basis and
 /// threshold and refinement levels 0–6 (quick: three scenes, levels 0–2), the discrete
 /// operator `ρK` is contractive (spectral radius at most the scene's largest
 /// reflectance: below it in open scenes, equal in a closed enclosure of one
-/// reflectance) and Picard and Gauss–Seidel converge. A scene's deeper levels are
-/// skipped once one solve takes more than 60 s (the table says so).
+/// reflectance) and Picard and Gauss–Seidel converge. A solve that fails or diverges
+/// gives FAIL rows, and the run goes on. A scene's deeper levels are skipped once one
+/// level takes more than 60 s (the table says so).
 fn contractivity(ctx: &Ctx, report: &mut Report) -> anyhow::Result<()> {
     use wavelux::scene::builtin::{BUILTIN_NAMES, builtin};
-    use wavelux::solver::solve_channel;
     let names: Vec<&str> = if ctx.quick {
         vec!["cornell-box", "ziegler-occluded", "white-furnace"]
     } else {
@@ -358,109 +524,25 @@ fn contractivity(ctx: &Ctx, report: &mut Report) -> anyhow::Result<()> {
     for name in names {
         let scene = builtin(name).ok_or_else(|| anyhow::anyhow!("no built-in {name}"))?;
         for &level in levels {
-            let cfg = SolverConfig {
-                max_level: level,
-                linear_method: LinearMethod::Picard,
-                max_iterations: 5000,
-                tolerance: tol,
-                ..default_settings()
-            };
-            let t0 = Stopwatch::start();
-            let sol = solve(&scene, &cfg)?;
-            let secs = t0.elapsed().cpu_or_wall();
-            let channels = if sol.patches.iter().all(|p| {
-                p.reflectance[0] == p.reflectance[1] && p.reflectance[1] == p.reflectance[2]
-            }) {
-                1
-            } else {
-                3
-            };
-            let (mut ratio, mut radius, mut max_rho): (f64, f64, f64) = (0.0, 0.0, 0.0);
-            let (mut picard_res, mut gs_res): (f64, f64) = (0.0, 0.0);
-            let (mut picard_it, mut gs_it) = (0, 0);
-            for ch in 0..channels {
-                let rho = sol
-                    .patches
-                    .iter()
-                    .map(|p| p.reflectance[ch])
-                    .fold(0.0, f64::max);
-                let r = spectral_radius(sol.system(), ch);
-                if rho > 0.0 && r / rho >= ratio {
-                    ratio = r / rho;
-                    radius = r;
-                    max_rho = rho;
-                }
-                let c = &sol.convergence[ch];
-                picard_res = picard_res.max(c.final_relative_residual);
-                picard_it = picard_it.max(c.iterations.len() - 1);
-                let (_, g) = solve_channel(
-                    sol.system(),
-                    ch,
-                    LinearMethod::GaussSeidel,
-                    5000,
-                    tol,
-                    None,
-                    None,
-                )?;
-                gs_res = gs_res.max(g.final_relative_residual);
-                gs_it = gs_it.max(g.iterations.len() - 1);
-            }
-            rows.push(vec![
-                name.to_string(),
-                level.to_string(),
-                sol.stats.leaves.to_string(),
-                sol.stats.links.to_string(),
-                format!("{radius:.4}"),
-                format!("{max_rho:.3}"),
-                format!("{ratio:.4}"),
-                format!("{picard_it} ({picard_res:.1e})"),
-                format!("{gs_it} ({gs_res:.1e})"),
-                format!("{secs:.1}"),
-            ]);
-            let label = format!("contractive {name} level {level}");
-            // Equality holds in a closed enclosure of one reflectance (every row of K
-            // sums to one): the bound allows rounding there.
-            report.rows.push(Row::new(
-                format!("{label}: spectral radius of ρK / max ρ"),
-                None,
-                ratio,
-                "",
-                Tolerance::AtMost(1.0 + 1e-9),
-            ));
-            report.rows.push(Row::new(
-                format!("{label}: Picard residual"),
-                None,
-                picard_res,
-                "",
-                Tolerance::AtMost(tol),
-            ));
-            report.rows.push(Row::new(
-                format!("{label}: Gauss–Seidel residual"),
-                None,
-                gs_res,
-                "",
-                Tolerance::AtMost(tol),
-            ));
-            if secs > 60.0 && level < *levels.last().unwrap_or(&0) {
-                rows.push(vec![
+            let m = measure_level(&scene, level, tol);
+            let (cells, level_rows) = level_rows(name, level, &m, tol);
+            rows.push(cells);
+            report.rows.extend(level_rows);
+            if m.seconds > 60.0 && level < *levels.last().unwrap_or(&0) {
+                let mut skipped = vec![
                     name.to_string(),
                     format!("> {level}"),
-                    format!("not run: level {level} took {secs:.0} s"),
-                    String::new(),
-                    String::new(),
-                    String::new(),
-                    String::new(),
-                    String::new(),
-                    String::new(),
-                    String::new(),
-                ]);
+                    format!("not run: level {level} took {:.0} s", m.seconds),
+                ];
+                skipped.resize(10, String::new());
+                rows.push(skipped);
                 break;
             }
         }
     }
     report.tables.push(Table {
-        title: "Contractivity of ρK on the built-in scenes (default basis and ε, Picard and \
-                Gauss–Seidel to 1e-8)"
+        title: "Contractivity of ρK on the built-in scenes (default basis and ε; Picard and \
+                Gauss–Seidel to 1e-8 from x₀ = b on the assembled system)"
             .into(),
         headers: [
             "scene",
@@ -492,4 +574,74 @@ fn rows_summary(m: &[Measured]) -> usize {
         m.len()
     );
     ok
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::report::Status;
+
+    /// A level whose Picard solve fails gives a FAIL row for Picard (NaN, the error in
+    /// its comment and in the table) and keeps the other two measured rows.
+    #[test]
+    fn a_failed_solve_is_a_fail_row_not_an_abort() {
+        let m = Level {
+            radius: Ok(Radius {
+                leaves: 7,
+                links: 40,
+                radius: 0.5,
+                max_rho: 0.8,
+                ratio: 0.625,
+            }),
+            picard: Err("Picard produced a non-finite iterate at iteration 185".into()),
+            gauss_seidel: Ok(Iterated {
+                iterations: 12,
+                residual: 3e-9,
+            }),
+            seconds: 1.5,
+        };
+        let (cells, rows) = level_rows("quadric-teapot", 2, &m, 1e-8);
+        assert_eq!(cells.len(), 10);
+        assert!(cells[7].contains("failed") && cells[7].contains("iteration 185"));
+        assert_eq!(cells[8], "12 (3.0e-9)");
+        let status: Vec<Status> = rows.iter().map(|r| r.status).collect();
+        assert_eq!(status, [Status::Pass, Status::Fail, Status::Pass]);
+        assert!(rows[1].ours.is_nan());
+        assert!(
+            rows[1]
+                .comment
+                .as_deref()
+                .unwrap()
+                .contains("iteration 185")
+        );
+    }
+
+    /// A failed assembly fails all three rows, and the table row stays ten cells wide.
+    #[test]
+    fn a_failed_assembly_fails_every_row() {
+        let why = "assembly solve failed: GMRES broke down".to_string();
+        let m = Level {
+            radius: Err(why.clone()),
+            picard: Err(why.clone()),
+            gauss_seidel: Err(why),
+            seconds: 0.1,
+        };
+        let (cells, rows) = level_rows("cornell-box", 0, &m, 1e-8);
+        assert_eq!(cells.len(), 10);
+        assert!(cells[2].contains("GMRES broke down"));
+        assert!(rows.iter().all(|r| r.status == Status::Fail));
+    }
+
+    /// End to end on the closed furnace at level 0: the radius of `ρK` is `ρ` (every
+    /// row of `K` sums to one), both iterations converge, and all three rows pass.
+    #[test]
+    fn measured_level_on_the_furnace_passes() -> anyhow::Result<()> {
+        let scene = white_furnace(1.0, 0.5)?;
+        let m = measure_level(&scene, 0, 1e-8);
+        let r = m.radius.as_ref().map_err(|e| anyhow::anyhow!("{e}"))?;
+        assert!((r.ratio - 1.0).abs() < 1e-6, "{}", r.ratio);
+        let (_, rows) = level_rows("white-furnace", 0, &m, 1e-8);
+        assert!(rows.iter().all(|r| r.status == Status::Pass));
+        Ok(())
+    }
 }
