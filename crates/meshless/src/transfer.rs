@@ -18,7 +18,8 @@
 //! the magnitude test alone, ours); a receiver that keeps any link queues its children.
 //! With [`crate::LinkThreshold::SenderArea`] (ours) both tests of a
 //! level-`l` sender use `ε/4^l`, the threshold scaled with the sender's support area.
-//! With [`MeshlessConfig::max_dropped_share`] `= Some(δ)` (ours) a level-0 receiver
+//! With [`MeshlessConfig::max_dropped_share`] `= Some(δ)` (ours; the default
+//! δ = [`crate::config::DEFAULT_MAX_DROPPED_SHARE`] = 0.05) a level-0 receiver
 //! whose dropped links sum to more than `δ·Σ_j ‖T'_ij‖` keeps back the largest of them
 //! until the dropped rest is within that bound; finer receivers then refine the kept
 //! links by eq. (17) under the seed's criteria.
@@ -295,9 +296,10 @@ pub fn refine<Q: SurfaceQuery + ?Sized>(
                 || Scratch::new(senders),
                 |s, &i| {
                     let rays = gather(query, basis, config, i, s);
+                    // A share of 1 may drop the whole row: the seed's criteria alone.
                     let bound = config
                         .max_dropped_share
-                        .filter(|_| l == 0)
+                        .filter(|&d| l == 0 && d < 1.0)
                         .map(|d| d * row_mass(s));
                     subtract_parents(basis, &rows, i, s);
                     let (kept, computed) = select(basis, &eps, bound, s);

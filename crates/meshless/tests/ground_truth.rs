@@ -239,6 +239,9 @@ fn sender_area_threshold_truncates_less() {
         r_coarse: Some(0.15 * SPHERE),
         epsilon,
         threshold,
+        // The seed's criteria alone: the level-0 share bound would keep back links
+        // that depend on which others the threshold dropped.
+        max_dropped_share: None,
         bounces: 1,
         gather_rays: 64,
         ..Default::default()
@@ -278,7 +281,7 @@ fn sender_area_threshold_truncates_less() {
 /// `max_dropped_share = δ`: every level-0 row keeps the gathered links unchanged and
 /// drops at most `δ` of its gathered mass, and no kept-back link could have been
 /// dropped within the bound (the largest are kept back first); `δ = 0` keeps every
-/// non-zero level-0 link; without it, `ε = 1` drops everything.
+/// non-zero level-0 link; without it, or with `δ = 1`, `ε = 1` drops everything.
 #[test]
 fn dropped_share_bounds_each_row() {
     let scene = white_furnace(0.0, 0.7).unwrap();
@@ -296,6 +299,12 @@ fn dropped_share_bounds_each_row() {
     let pre = Precomputed::build(&scene, &cfg(None), &quiet).unwrap();
     let b = &pre.basis;
     assert_eq!(pre.t.nnz(), 0, "ε = 1 drops every link");
+    let (t, _) = refine(&q, b, &cfg(Some(1.0)), &|_, _| {}).unwrap();
+    assert_eq!(
+        t.nnz(),
+        0,
+        "a share of 1 keeps nothing back (the seed's criteria)"
+    );
     for share in [0.0, 0.2, 0.6] {
         let c = cfg(Some(share));
         let (t, _) = refine(&q, b, &c, &|_, _| {}).unwrap();

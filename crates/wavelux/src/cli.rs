@@ -478,7 +478,7 @@ pub struct MeshlessArgs {
     #[arg(long, value_enum, default_value_t = LinkThresholdArg::Uniform)]
     pub link_threshold: LinkThresholdArg,
     /// Meshless: largest share of a level-0 receiver's gathered link mass that eps may
-    /// drop (0..=1; ours) [default: none, eps alone].
+    /// drop (0..=1; ours; 1: the seed's criteria alone) [default: 0.05].
     #[arg(long)]
     pub max_dropped_share: Option<f64>,
     /// Meshless: viewpoint x,y,z of point placement [default: the scene's first camera,

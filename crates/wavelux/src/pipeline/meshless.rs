@@ -67,7 +67,9 @@ pub fn config(a: &SolveArgs) -> anyhow::Result<MeshlessConfig> {
             LinkThresholdArg::SenderArea => LinkThreshold::SenderArea,
             LinkThresholdArg::Uniform => LinkThreshold::Uniform,
         },
-        max_dropped_share: m.max_dropped_share,
+        max_dropped_share: m
+            .max_dropped_share
+            .or(MeshlessConfig::default().max_dropped_share),
         bounces: m.bounces,
         seed: a.seed,
         viewpoint,
