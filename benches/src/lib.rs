@@ -1,6 +1,9 @@
 //! Criterion benches for wavelux live in `benches/`; this library holds the scene and
 //! query generators they share with the side-by-side tools in `examples/` (e.g.
-//! `accel_vs_embree`), so that every measurement runs on the same triangles and rays.
+//! `accel_vs_embree`), so that every measurement runs on the same triangles and rays,
+//! and [`cpu_time`], criterion's measurement in CPU time.
+
+pub mod cpu_time;
 
 use glam::DVec3;
 use rand::{RngExt, SeedableRng};
