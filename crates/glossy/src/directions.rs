@@ -84,7 +84,7 @@ impl DirectionMap for CosineHemisphere {
     /// `π / cos θ`, finite (huge) on the square's boundary so that `cos θ J_ω` is 0
     /// there rather than NaN.
     fn jacobian(&self, uv: DVec2) -> f64 {
-        std::f64::consts::PI / self.direction(uv).z.max(f64::MIN_POSITIVE)
+        cosine_jacobian(self.direction(uv))
     }
     fn solid_angle(&self) -> f64 {
         std::f64::consts::TAU
@@ -92,6 +92,12 @@ impl DirectionMap for CosineHemisphere {
     fn is_equal_area(&self) -> bool {
         false
     }
+}
+
+/// [`CosineHemisphere`]'s `J_ω = π / cos θ` of its direction `d`.
+#[inline]
+fn cosine_jacobian(d: DVec3) -> f64 {
+    std::f64::consts::PI / d.z.max(f64::MIN_POSITIVE)
 }
 
 impl DirectionKind {
@@ -137,6 +143,18 @@ impl DirectionKind {
     #[must_use]
     pub fn jacobian(self, u: DVec2) -> f64 {
         self.map().jacobian(u)
+    }
+
+    /// [`DirectionKind::jacobian`] at `u` given its direction `d = direction(u)`
+    /// (bitwise the same value): the cosine map's `J_ω` follows from `d` without a
+    /// second evaluation of the map.
+    #[inline]
+    #[must_use]
+    pub fn jacobian_of(self, u: DVec2, d: DVec3) -> f64 {
+        match self {
+            Self::Cosine => cosine_jacobian(d),
+            _ => self.map().jacobian(u),
+        }
     }
 }
 

@@ -171,34 +171,41 @@ const EDGES: [(usize, usize); 4] = [(0, 1), (1, 2), (2, 3), (3, 0)];
 /// Accumulator of the 16 × 16 child-pair integrals per channel.
 type Q = [[[f64; 3]; CHILDREN]; CHILDREN];
 
-/// A receiver sample point with its frame and BRDF.
 /// Geometry of a sender point, shared by every receiver point of a link.
 struct SendPoint {
-    st: DVec2,
     x: DVec3,
     nx: DVec3,
     frame: crate::ward::Frame,
     real: bool,
+    /// Area density of the point (world area⁻¹): the inverse of its parameter weight
+    /// times the support's area element `J(s, t)`, evaluated once per point.
+    dens: f64,
+    /// `J(s, t)` (world area per unit parameter area).
+    jac: f64,
 }
 
 impl SendPoint {
-    fn new(p: &crate::patch::Patch, st: DVec2) -> Self {
+    /// The point at parameter `st` whose weight per unit parameter area is `w`.
+    fn new(p: &crate::patch::Patch, st: DVec2, w: f64) -> Self {
         let real = p.support.is_real(st.x, st.y);
         let (x, nx, frame) = if real {
             p.point_frame(st.x, st.y)
         } else {
             (DVec3::ZERO, DVec3::Z, crate::ward::Frame::any(DVec3::Z))
         };
+        let jac = p.support.jacobian(st.x, st.y);
         Self {
-            st,
             x,
             nx,
             frame,
             real,
+            dens: 1.0 / (w * jac),
+            jac,
         }
     }
 }
 
+/// A receiver sample point with its frame and BRDF.
 struct RecvPoint {
     #[allow(dead_code)]
     st: DVec2,
@@ -385,7 +392,6 @@ impl<'a> Transport<'a> {
         let (hs, hr) = (send.key.size(), recv.key.size());
         let (ls, lr) = (send.key.lo(), recv.key.lo());
         let n = self.opts.spatial;
-        let inv = 1.0 / n as f64;
         let (hs2, hr2) = (0.5 * hs, 0.5 * hr);
         let s0s: [DVec2; 4] = std::array::from_fn(|cs| {
             DVec2::new(
@@ -423,10 +429,9 @@ impl<'a> Transport<'a> {
         let xs_geo: [Vec<SendPoint>; 4] = std::array::from_fn(|cs| {
             xs_pts[cs]
                 .iter()
-                .map(|(xs, _)| SendPoint::new(ps, *xs))
+                .map(|(xs, wx)| SendPoint::new(ps, *xs, hs2 * hs2 * wx))
                 .collect()
         });
-        let _ = inv;
         let reverse = self.sharp(send, recv);
         for cr in 0..4 {
             let r0 = DVec2::new(
@@ -469,12 +474,8 @@ impl<'a> Transport<'a> {
                         Some(a) => a,
                         None => &mut acc,
                     };
-                    for ((xs, wx), sp) in xs_pts[cs].iter().zip(&xs_geo[cs]) {
-                        // Area density of the point (its weight's inverse).
-                        let dens = 1.0 / (hs2 * hs2 * wx * ps.support.jacobian(xs.x, xs.y));
-                        self.pair(
-                            send, recv, &ry, sp, w_y, dens, !reverse, cs, cr, &mut rng, target,
-                        );
+                    for sp in &xs_geo[cs] {
+                        self.pair(send, recv, &ry, sp, w_y, !reverse, cs, cr, &mut rng, target);
                     }
                 }
                 if reverse {
@@ -498,14 +499,12 @@ impl<'a> Transport<'a> {
                     };
                     // Area weight of x folded into w: w·A_s = 1/density.
                     let wx = w * w_cells / (hr2 * hr2);
-                    let dens = 1.0 / (wx * ps.support.jacobian(xs.x, xs.y));
                     self.pair(
                         send,
                         recv,
                         &ry,
-                        &SendPoint::new(ps, xs),
+                        &SendPoint::new(ps, xs, wx),
                         hr2 * hr2,
-                        dens,
                         true,
                         cs,
                         cr,
@@ -733,8 +732,8 @@ impl<'a> Transport<'a> {
     }
 
     /// One sender-side `(x, y)` pair: shadow ray, sender direction cell, inner direction
-    /// integral. `w_y`: parameter weight of `y`; `dens`: density of `x` per unit area
-    /// (the pair's weight is `w_y / dens` for the area integral over `x`).
+    /// integral. `w_y`: parameter weight of `y`; the pair's weight for the area integral
+    /// over `x` is `w_y / sp.dens`.
     fn pair(
         &self,
         send: End,
@@ -742,7 +741,6 @@ impl<'a> Transport<'a> {
         ry: &RecvPoint,
         sp: &SendPoint,
         w_y: f64,
-        dx: f64,
         specular: bool,
         cs: usize,
         cr: usize,
@@ -754,7 +752,7 @@ impl<'a> Transport<'a> {
         if !sp.real {
             return;
         }
-        let (xs, x, nx) = (sp.st, sp.x, sp.nx);
+        let (x, nx, dx) = (sp.x, sp.nx, sp.dens);
         let d = ry.y - x;
         let r2 = d.length_squared();
         if !crate::positive(r2) {
@@ -803,7 +801,8 @@ impl<'a> Transport<'a> {
                 |u: DVec2| u.x >= lr[2] && u.x <= lr[2] + hr && u.y >= lr[3] && u.y <= lr[3] + hr;
             let child =
                 |u: DVec2| usize::from(u.x >= lr[2] + hc) | (usize::from(u.y >= lr[3] + hc) << 1);
-            let dens_other = |pdf: f64, u: DVec2| dx * l as f64 * pdf * self.dirs.jacobian(u);
+            // The balance heuristic's other density; `j`: `J_ω` at the sample.
+            let dens_other = |pdf: f64, j: f64| dx * l as f64 * pdf * j;
             for ca in 0..4 {
                 let c0 = DVec2::new(lr[2] + hc * (ca & 1) as f64, lr[3] + hc * (ca >> 1) as f64);
                 for i in 0..m {
@@ -812,7 +811,8 @@ impl<'a> Transport<'a> {
                     let f = lobe.eval(wi, wo);
                     acc.samples += 1;
                     if f > 0.0 {
-                        spec[ca] += f / (d_a1 + dens_other(lobe.pdf(wi, wo), u));
+                        spec[ca] +=
+                            f / (d_a1 + dens_other(lobe.pdf(wi, wo), self.dirs.jacobian_of(u, wo)));
                     }
                 }
             }
@@ -828,7 +828,7 @@ impl<'a> Transport<'a> {
                     continue;
                 }
                 let f = lobe.eval(wi, wo);
-                let den = d_a1 + dens_other(pdf, u);
+                let den = d_a1 + dens_other(pdf, self.dirs.jacobian(u));
                 if f > 0.0 && den > 0.0 {
                     spec[child(u)] += f / den;
                 }
@@ -837,13 +837,14 @@ impl<'a> Transport<'a> {
             acc.samples += 4;
         }
         let inv_pi = std::f64::consts::FRAC_1_PI;
-        for (ca, sp) in spec.iter().enumerate() {
+        let jac = sp.jac;
+        for (ca, s) in spec.iter().enumerate() {
             let kr = cr | (ca << 2);
             let mut kmax: f64 = 0.0;
             for c in 0..3 {
-                let v = brdf.diffuse[c] * inv_pi * vol / dx + brdf.specular[c] * sp;
+                let v = brdf.diffuse[c] * inv_pi * vol / dx + brdf.specular[c] * s;
                 acc.q[kr][ks][c] += w_y * g * v;
-                kmax = kmax.max(g * v * dx / vol * ps.support.jacobian(xs.x, xs.y));
+                kmax = kmax.max(g * v * dx / vol * jac);
             }
             acc.kmin = acc.kmin.min(kmax);
             acc.kmax = acc.kmax.max(kmax);
