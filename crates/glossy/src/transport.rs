@@ -633,7 +633,7 @@ impl<'a> Transport<'a> {
             for i in 0..mb {
                 let u = c0 + hc * stratified(i, mb, rng);
                 let wo = self.dirs.direction(u);
-                let Some((wi, pdf, _)) = lobe.sample(wo, [rng.random(), rng.random()]) else {
+                let Some((wi, pdf, f)) = lobe.sample_eval(wo, [rng.random(), rng.random()]) else {
                     continue;
                 };
                 acc.samples += 1;
@@ -678,7 +678,6 @@ impl<'a> Transport<'a> {
                 if !(cx > 0.0 && cy > 0.0) {
                     continue;
                 }
-                let f = lobe.eval(wi, wo);
                 if !(f > 0.0 && pdf > 0.0) {
                     continue;
                 }
@@ -808,16 +807,15 @@ impl<'a> Transport<'a> {
                 for i in 0..m {
                     let u = c0 + hc * stratified(i, m, rng);
                     let wo = self.dirs.direction(u);
-                    let f = lobe.eval(wi, wo);
+                    let (f, pdf) = lobe.eval_pdf(wi, wo);
                     acc.samples += 1;
                     if f > 0.0 {
-                        spec[ca] +=
-                            f / (d_a1 + dens_other(lobe.pdf(wi, wo), self.dirs.jacobian_of(u, wo)));
+                        spec[ca] += f / (d_a1 + dens_other(pdf, self.dirs.jacobian_of(u, wo)));
                     }
                 }
             }
             for _ in 0..l {
-                let Some((wo, pdf, _)) = lobe.sample(wi, [rng.random(), rng.random()]) else {
+                let Some((wo, pdf, f)) = lobe.sample_eval(wi, [rng.random(), rng.random()]) else {
                     continue;
                 };
                 acc.samples += 1;
@@ -827,7 +825,6 @@ impl<'a> Transport<'a> {
                 if !in_cell(u) {
                     continue;
                 }
-                let f = lobe.eval(wi, wo);
                 let den = d_a1 + dens_other(pdf, self.dirs.jacobian(u));
                 if f > 0.0 && den > 0.0 {
                     spec[child(u)] += f / den;
