@@ -673,13 +673,16 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
         *p = std::array::from_fn(|c| 0.5 * (halves[0].pixels[i][c] + halves[1].pixels[i][c]));
     }
     let mask = render_radiance(&EmitterMask(&traced), &view, &image_opts(), &|_| {})?;
-    // Noise of the averaged reference: half the relative L1 between the halves
-    // (|a − b|/2 = |a − mean| per pixel; the mean's noise is that over √2).
+    // Noise of the averaged reference: half the relative L1 between the halves. With
+    // independent halves a = t + e₁, b = t + e₂ and symmetric noise, (e₁ − e₂)/2 has
+    // the distribution of (e₁ + e₂)/2, the mean's noise: |a − b|/2 estimates it per
+    // pixel. (Until session 29 this was divided by a further √2, which took
+    // |a − mean| = |e₁ − e₂|/2 for one half's noise: it is the mean's.)
     let (ref_small, mask_small) = (reference.downsample(factor)?, mask.downsample(factor)?);
     let (split, kept) = halves[0]
         .downsample(factor)?
         .reflected_relative_l1(&halves[1].downsample(factor)?, &mask_small)?;
-    let noise = split / 2.0 / std::f64::consts::SQRT_2;
+    let noise = split / 2.0;
     let setup = Setup {
         scene: &scene,
         view: &view,
@@ -848,16 +851,23 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     );
     let e_off = off.curve.points.iter().map(|p| p[3]).collect::<Vec<_>>();
     let e_on = on.curve.points.iter().map(|p| p[3]).collect::<Vec<_>>();
+    // Both errors are measured against the same noisy reference r = t + n: for any
+    // image s, | Σ|s − r| − Σ|s − t| | ≤ Σ|n| (triangle inequality), so the measured
+    // errors of the two images may each be off by the reference noise N and their
+    // difference by 2N. A measured ratio above 1 shows that refinement made the image
+    // worse only beyond 1 + 2N/e(V⁰) (registered in session 29, before a rerun).
+    let allowance = 2.0 * noise / e_on[0];
     r.rows.push(
         Row::new(
             "image error after the last round / V⁰, importance from the eye",
             None,
             e_on[e_on.len() - 1] / e_on[0],
             "",
-            Tolerance::AtMost(1.0),
+            Tolerance::AtMost(1.0 + allowance),
         )
         .comment(format!(
-            "errors per round: importance {e_on:.4?}, none {e_off:.4?}"
+            "errors per round: importance {e_on:.4?}, none {e_off:.4?}; ≤ 1 + 2 × noise              {noise:.4} / V⁰ error {:.4}: each error is measured against the same noisy              reference and may be off by its noise",
+            e_on[0]
         )),
     );
     let e_star = off.curve.best().max(on.curve.best());
