@@ -255,16 +255,33 @@ fn the_error_falls_with_refinement() {
 /// ([`GlobalCubeConfig::standard`]) on the command's default projector (adaptive
 /// supersampling, two receiver points per axis) and by the particle tracer, which
 /// shares no code with the projector. Checked:
-/// - collided power per `2³` block within [`L1_8`] `+ 2 ×` the tracer's noise at
-///   `N = 8` (the model term is the bound registered above for the 8³ media, not
-///   chosen for this scene; the noise term as in [`check`]), and the error falls from
-///   `N = 4` to `N = 8`;
+/// - collided power per `2³` block within the model term `+ 2 ×` the tracer's noise
+///   at `N = 8` (the noise term as in [`check`]), and the error falls from `N = 4` to
+///   `N = 8`;
 /// - the shell closes the scene, so every emitted watt is absorbed: the tracer lets
 ///   nothing escape (exactly), and the model's absorbed power is within [`TOTALS_8`] of
 ///   the emitted (its energy balance on opaque voxels at this framebuffer).
 ///
-/// Measured (200 000 particles, seed 41, noise 0.024): L1 0.216 at `N = 4` (absorbed
-/// 0.78 of the emitted), 0.032 at `N = 8` (absorbed 0.976; the tracer 0.999).
+/// **The model term is derived for this scene, from the model alone.** The framebuffer
+/// error of the global cube is at least first order in the pixel width: a pixel that
+/// straddles a silhouette is wrong by at most its whole value, and the share of such
+/// pixels halves when `N` doubles (smooth parts of the integrand converge faster,
+/// second order at pixel centres). So `e₈ ≤ e₄/2` for the errors `e_N` of the model at
+/// `N` against the truth, and the triangle inequality `e₄ ≤ ‖s₄ − s₈‖ + e₈` gives
+/// `e₈ ≤ ‖s₄ − s₈‖`: the distance between the model's own `N = 4` and `N = 8`
+/// solutions (relative L1 of the `2³` blocks, over the tracer's total), computed by
+/// the run, bounds its `N = 8` error. What it does not cover is the part of the error
+/// that does not fall with `N` (the two receiver points per axis, the faces' uniform
+/// emission, the supersampling's loss of sub-pixel emitters, see
+/// `wavelux_volume`'s docs): the check fails if that part exceeds the framebuffer
+/// part plus the tracer's noise.
+///
+/// Measured (200 000 particles, seed 41, noise 0.024): L1 0.071 at `N = 4` (absorbed
+/// 0.941 of the emitted), 0.023 at `N = 8` (absorbed 0.992; the tracer 0.999); model
+/// term 0.060 (the check allows 0.107; `e₄/e₈` = 3.1, above the premise's 2).
+/// Session 28 measured 0.216 (absorbed 0.78) and 0.032 (0.976), before the recording
+/// chose its supersampled pixels on the first Jacobi iterate instead of GMRES's
+/// initial guess (`wavelux_volume::system` docs).
 #[test]
 fn voxelised_cornell_box_against_the_particle_tracer() {
     let scene = wavelux_scene::builtin::builtin("cornell-box").unwrap();
@@ -274,6 +291,7 @@ fn voxelised_cornell_box_against_the_particle_tracer() {
     let want = coarsen(&mc.collided[0], BLOCK);
     let nz = noise(&mc, BLOCK);
     let mut errors = Vec::new();
+    let mut blocks = Vec::new();
     for n in [4, 8] {
         let s = wavelux_volume::solve(
             &g,
@@ -282,7 +300,9 @@ fn voxelised_cornell_box_against_the_particle_tracer() {
             &mut |_| {},
         )
         .unwrap();
-        let e = l1(&coarsen(&s.collided_per_voxel()[0], BLOCK), &want);
+        let got = coarsen(&s.collided_per_voxel()[0], BLOCK);
+        let e = l1(&got, &want);
+        blocks.push(got);
         let absorbed = s.energy.absorbed[0] / s.energy.emitted[0];
         eprintln!(
             "voxelised Cornell box, N = {n}: collided L1 {e:.4} (tracer noise {nz:.4}); \
@@ -292,9 +312,18 @@ fn voxelised_cornell_box_against_the_particle_tracer() {
         errors.push((e, absorbed));
     }
     let ((e4, _), (e8, absorbed8)) = (errors[0], errors[1]);
+    // The model term, derived: ‖s₄ − s₈‖ over the tracer's total (module docs).
+    let scale: f64 = want.iter().map(|v| v.abs()).sum();
+    let model: f64 = blocks[0]
+        .iter()
+        .zip(blocks[1].iter())
+        .map(|(a, b)| (a - b).abs())
+        .sum::<f64>()
+        / scale;
+    eprintln!("model term ‖s4 − s8‖ {model:.4}");
     assert!(
-        e8 <= L1_8 + 2.0 * nz,
-        "collided L1 {e8} > {L1_8} + 2 × noise {nz}"
+        e8 <= model + 2.0 * nz,
+        "collided L1 {e8} > ‖s4 − s8‖ {model} + 2 × noise {nz}"
     );
     assert!(e8 < e4, "the error does not fall: {e8} !< {e4}");
     assert!(
