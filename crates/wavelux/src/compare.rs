@@ -1,7 +1,8 @@
 //! `wavelux compare A B`: error metrics of A against the reference B, for two JSON
 //! results (per-surface radiosity, matched by name), two texel files (the radiosity
-//! function at the same texel grid, `solve --texels`; issue 12 §1 (a)) or two images
-//! (EXR/PNG).
+//! function at the same texel grid, `solve --texels`; issue 12 §1 (a)), two raw
+//! emission grids of `--method global-cube` (GlobalCube eq. (35)'s `Q_square` and the
+//! RMS difference; issue 14 §5) or two images (EXR/PNG).
 
 use std::path::Path;
 
@@ -46,6 +47,79 @@ struct ImageMetrics {
 
 fn is_json(p: &Path) -> bool {
     p.extension().and_then(|e| e.to_str()) == Some("json")
+}
+
+fn is_raw(p: &Path) -> bool {
+    p.extension().and_then(|e| e.to_str()) == Some("raw")
+}
+
+/// Metrics of two raw emission grids (`solve --method global-cube`'s
+/// `STEM-emission.raw`, W/m³ per voxel and channel).
+#[derive(Debug, Serialize)]
+struct VolumeMetrics {
+    kind: &'static str,
+    /// Voxels per side.
+    side: usize,
+    /// GlobalCube eq. (35): `√(Σ (a − b)²) / count` over voxels and channels (W/m³).
+    q_square: f64,
+    /// Root-mean-square difference over voxels and channels (W/m³).
+    rms: f64,
+    /// `Σ |a − b| / Σ |b|` over voxels and channels.
+    relative_l1: f64,
+}
+
+/// Reads a raw emission grid: `side³ × 3` little-endian `f32`, x fastest, RGB
+/// interleaved (`wavelux_volume::VolumeSolution::emission_raw`).
+fn read_raw(p: &Path) -> anyhow::Result<[ndarray::Array3<f64>; 3]> {
+    let bytes = std::fs::read(p).with_context(|| format!("cannot read {p:?}"))?;
+    let voxels = bytes.len() / 12;
+    let side = (voxels as f64).cbrt().round() as usize;
+    if !bytes.len().is_multiple_of(12) || voxels == 0 || side * side * side != voxels {
+        bail!(
+            "{p:?}: {} bytes is not an emission grid (side³ × 3 f32 values)",
+            bytes.len()
+        );
+    }
+    let mut out: [ndarray::Array3<f64>; 3] =
+        std::array::from_fn(|_| ndarray::Array3::zeros((side, side, side)));
+    for (i, b) in bytes.chunks_exact(4).enumerate() {
+        let v = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        let (c, voxel) = (i % 3, i / 3);
+        let (x, y, z) = (voxel % side, (voxel / side) % side, voxel / (side * side));
+        if !v.is_finite() {
+            bail!("{p:?}: voxel ({x}, {y}, {z}) channel {c} is {v}");
+        }
+        out[c][[z, y, x]] = f64::from(v);
+    }
+    Ok(out)
+}
+
+/// `a`'s emission grid against the reference `b`'s (same side).
+fn compare_volumes(
+    a: &[ndarray::Array3<f64>; 3],
+    b: &[ndarray::Array3<f64>; 3],
+) -> anyhow::Result<VolumeMetrics> {
+    if a[0].dim() != b[0].dim() {
+        bail!(
+            "the emission grids have different sides ({} and {})",
+            a[0].dim().0,
+            b[0].dim().0
+        );
+    }
+    let (mut num, mut den) = (0.0, 0.0);
+    for (ca, cb) in a.iter().zip(b) {
+        for (x, y) in ca.iter().zip(cb.iter()) {
+            num += (x - y).abs();
+            den += y.abs();
+        }
+    }
+    Ok(VolumeMetrics {
+        kind: "volume",
+        side: a[0].dim().0,
+        q_square: wavelux::volume::q_square(a, b)?,
+        rms: wavelux::volume::rms(a, b)?,
+        relative_l1: if den > 0.0 { num / den } else { num },
+    })
 }
 
 fn read_result(p: &Path) -> anyhow::Result<report::Result> {
@@ -101,6 +175,25 @@ pub fn run(c: &CompareArgs) -> anyhow::Result<()> {
             }
             serde_json::to_string_pretty(&m)?
         }
+        (false, false) if is_raw(&c.a) || is_raw(&c.b) => {
+            if !(is_raw(&c.a) && is_raw(&c.b)) {
+                bail!("compare two raw emission grids, not one and an image");
+            }
+            if c.map.is_some() {
+                bail!("--map needs two images, not two emission grids");
+            }
+            let m = compare_volumes(&read_raw(&c.a)?, &read_raw(&c.b)?)?;
+            if !c.quiet {
+                println!(
+                    "emission grid ({}³): Q_square {:.6e}, RMS {:.6e} W/m³, relative L1 {:.4}%",
+                    m.side,
+                    m.q_square,
+                    m.rms,
+                    100.0 * m.relative_l1
+                );
+            }
+            serde_json::to_string_pretty(&m)?
+        }
         (false, false) => {
             let a = Image::read(&c.a)?;
             let b = Image::read(&c.b)?;
@@ -130,7 +223,7 @@ pub fn run(c: &CompareArgs) -> anyhow::Result<()> {
                 metrics,
             })?
         }
-        _ => bail!("compare two JSON results or two images, not one of each"),
+        _ => bail!("compare two JSON results, two emission grids or two images, not one of each"),
     };
     if let Some(p) = &c.json {
         write_bytes_atomic(p, text.as_bytes())?;

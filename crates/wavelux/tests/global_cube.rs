@@ -143,6 +143,83 @@ fn voxelised_cornell_box_keeps_its_power() -> Result<()> {
     Ok(())
 }
 
+/// The `f32` values of a raw emission grid.
+fn raw_values(p: &Path) -> Result<Vec<f64>> {
+    let bytes = std::fs::read(p)?;
+    Ok(bytes
+        .chunks_exact(4)
+        .map(|b| f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]])))
+        .collect())
+}
+
+/// `compare A.raw B.raw` (issue 14 §5): GlobalCube eq. (35)'s `Q_square` and the RMS
+/// difference of two emission grids, against the same sums over the files' values; a
+/// grid against itself gives 0; a file that is not a grid is an error naming it.
+#[test]
+fn compare_gives_q_square_and_rms_of_two_emission_grids() -> Result<()> {
+    let dir = tempfile::tempdir()?;
+    let mut grids = Vec::new();
+    for (sub, k) in [("a", "2"), ("b", "1")] {
+        let cwd = dir.path().join(sub);
+        std::fs::create_dir_all(&cwd)?;
+        let v = solve(
+            "builtin:gc-lounge-8",
+            &["--no-image", "--receiver-samples", k],
+            &cwd,
+        )?;
+        let raw = v["outputs"]["volume_emission"].as_str().context("raw")?;
+        grids.push(cwd.join(raw));
+    }
+    let compare = |a: &Path, b: &Path| -> Result<Value> {
+        let json = dir.path().join("m.json");
+        let (a, b, j) = (a.to_str(), b.to_str(), json.to_str());
+        let args = [
+            "compare",
+            a.context("a")?,
+            b.context("b")?,
+            "--json",
+            j.context("j")?,
+            "-q",
+        ];
+        let out = run(&args, dir.path());
+        anyhow::ensure!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        Ok(serde_json::from_str(&std::fs::read_to_string(json)?)?)
+    };
+    let m = compare(&grids[0], &grids[1])?;
+    assert_eq!(m["kind"], "volume");
+    assert_eq!(m["side"], 8);
+    let (a, b) = (raw_values(&grids[0])?, raw_values(&grids[1])?);
+    let n = a.len() as f64;
+    let sq: f64 = a.iter().zip(&b).map(|(x, y)| (x - y) * (x - y)).sum();
+    let (q, r) = (
+        m["q_square"].as_f64().context("q")?,
+        m["rms"].as_f64().context("rms")?,
+    );
+    assert!(sq > 0.0, "the two solves differ");
+    assert!((q - sq.sqrt() / n).abs() <= 1e-12 * q, "{q}");
+    assert!((r - (sq / n).sqrt()).abs() <= 1e-12 * r, "{r}");
+    let same = compare(&grids[0], &grids[0])?;
+    assert_eq!(same["q_square"], 0.0);
+    assert_eq!(same["rms"], 0.0);
+    let bad = dir.path().join("bad.raw");
+    std::fs::write(&bad, [0u8; 10])?;
+    let out = run(
+        &[
+            "compare",
+            bad.to_str().context("bad")?,
+            grids[0].to_str().context("a")?,
+        ],
+        dir.path(),
+    );
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("bad.raw"));
+    Ok(())
+}
+
 #[test]
 fn bad_options_are_errors() -> Result<()> {
     let dir = tempfile::tempdir()?;
