@@ -358,6 +358,38 @@ struct Level {
     gauss_seidel: Result<Iterated, String>,
     /// CPU seconds of the whole level (assembly, power method and both solves).
     seconds: f64,
+    /// The assembled system's bytes ([`wavelux::solver::Statistics::bytes`]; 0 when
+    /// the assembly failed).
+    bytes: usize,
+}
+
+/// Stored bytes a level may be predicted to reach before the deeper levels are
+/// skipped. Session 29's full run was killed by the kernel at 20.9 GB resident in
+/// one `solve` of this section (23 GB machine): the 60 s rule bounds time, not
+/// memory. A solve's peak is a multiple of its stored system (links, blocks,
+/// refinement temporaries), so the bound is a tenth of that machine's memory.
+const MEMORY_BUDGET: f64 = 2.0 * (1u64 << 30) as f64;
+
+/// Why a scene's levels deeper than this one are not run (`None`: run them): this
+/// level took more than 60 s CPU, or the next one is predicted to store more than
+/// [`MEMORY_BUDGET`] (this level's bytes times its growth over the previous level,
+/// at least 4, a node's four children).
+fn skip_deeper(m: &Level, level: u8, prev_bytes: Option<usize>) -> Option<String> {
+    let growth = prev_bytes
+        .filter(|&p| p > 0)
+        .map_or(4.0, |p| (m.bytes as f64 / p as f64).max(4.0));
+    let next = m.bytes as f64 * growth;
+    if m.seconds > 60.0 {
+        Some(format!("not run: level {level} took {:.0} s", m.seconds))
+    } else if next > MEMORY_BUDGET {
+        Some(format!(
+            "not run: level {} would store about {:.1} GiB",
+            level + 1,
+            next / (1u64 << 30) as f64
+        ))
+    } else {
+        None
+    }
 }
 
 /// Assembles `scene` at `level` (default basis and ε; one GMRES iteration, whose
@@ -383,6 +415,7 @@ fn measure_level(scene: &Scene, level: u8, tol: f64) -> Level {
                 picard: Err(why.clone()),
                 gauss_seidel: Err(why),
                 seconds: t0.elapsed().cpu_or_wall(),
+                bytes: 0,
             };
         }
     };
@@ -433,6 +466,7 @@ fn measure_level(scene: &Scene, level: u8, tol: f64) -> Level {
         picard,
         gauss_seidel,
         seconds: t0.elapsed().cpu_or_wall(),
+        bytes: sol.stats.bytes,
     }
 }
 
@@ -506,7 +540,8 @@ fn level_rows(name: &str, level: u8, m: &Level, tol: f64) -> (Vec<String>, Vec<R
 /// reflectance: below it in open scenes, equal in a closed enclosure of one
 /// reflectance) and Picard and Gauss–Seidel converge. A solve that fails or diverges
 /// gives FAIL rows, and the run goes on. A scene's deeper levels are skipped once one
-/// level takes more than 60 s (the table says so).
+/// level takes more than 60 s or the next is predicted to store more than
+/// [`MEMORY_BUDGET`] ([`skip_deeper`]; the table says so).
 fn contractivity(ctx: &Ctx, report: &mut Report) -> anyhow::Result<()> {
     use wavelux::scene::builtin::{BUILTIN_NAMES, builtin};
     let names: Vec<&str> = if ctx.quick {
@@ -523,21 +558,21 @@ fn contractivity(ctx: &Ctx, report: &mut Report) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     for name in names {
         let scene = builtin(name).ok_or_else(|| anyhow::anyhow!("no built-in {name}"))?;
+        let mut prev_bytes = None;
         for &level in levels {
             let m = measure_level(&scene, level, tol);
             let (cells, level_rows) = level_rows(name, level, &m, tol);
             rows.push(cells);
             report.rows.extend(level_rows);
-            if m.seconds > 60.0 && level < *levels.last().unwrap_or(&0) {
-                let mut skipped = vec![
-                    name.to_string(),
-                    format!("> {level}"),
-                    format!("not run: level {level} took {:.0} s", m.seconds),
-                ];
+            if level < *levels.last().unwrap_or(&0)
+                && let Some(why) = skip_deeper(&m, level, prev_bytes)
+            {
+                let mut skipped = vec![name.to_string(), format!("> {level}"), why];
                 skipped.resize(10, String::new());
                 rows.push(skipped);
                 break;
             }
+            prev_bytes = Some(m.bytes);
         }
     }
     report.tables.push(Table {
@@ -599,6 +634,7 @@ mod tests {
                 residual: 3e-9,
             }),
             seconds: 1.5,
+            bytes: 1 << 20,
         };
         let (cells, rows) = level_rows("quadric-teapot", 2, &m, 1e-8);
         assert_eq!(cells.len(), 10);
@@ -625,11 +661,34 @@ mod tests {
             picard: Err(why.clone()),
             gauss_seidel: Err(why),
             seconds: 0.1,
+            bytes: 0,
         };
         let (cells, rows) = level_rows("cornell-box", 0, &m, 1e-8);
         assert_eq!(cells.len(), 10);
         assert!(cells[2].contains("GMRES broke down"));
         assert!(rows.iter().all(|r| r.status == Status::Fail));
+    }
+
+    /// The deeper levels are skipped after a level over 60 s, or when the next level
+    /// is predicted over the memory budget (growth at least four), and run otherwise.
+    #[test]
+    fn deeper_levels_are_skipped_by_time_or_predicted_memory() {
+        let level = |seconds: f64, bytes: usize| Level {
+            radius: Err(String::new()),
+            picard: Err(String::new()),
+            gauss_seidel: Err(String::new()),
+            seconds,
+            bytes,
+        };
+        let mib = 1usize << 20;
+        assert!(skip_deeper(&level(1.0, 100 * mib), 2, Some(50 * mib)).is_none());
+        let slow = skip_deeper(&level(61.0, mib), 2, None).unwrap_or_default();
+        assert!(slow.contains("took 61 s"), "{slow}");
+        // 400 MiB after 40 MiB: growth 10, 3.9 GiB predicted.
+        let big = skip_deeper(&level(1.0, 400 * mib), 3, Some(40 * mib)).unwrap_or_default();
+        assert!(big.contains("level 4") && big.contains("3.9 GiB"), "{big}");
+        // 600 MiB with no previous level: growth 4, 2.3 GiB.
+        assert!(skip_deeper(&level(1.0, 600 * mib), 0, None).is_some());
     }
 
     /// End to end on the closed furnace at level 0: the radius of `ρK` is `ρ` (every
