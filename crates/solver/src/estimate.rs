@@ -40,7 +40,9 @@
 //! faces' bias from the floor next to them: short_block.3's mean was 5.1 % too bright
 //! in blue while the estimate said 0.2 %; the same solution estimated with the
 //! emitters' leaves says 5.1 % (session 28, docs/performance.md). Those links'
-//! transport depends on the solution and is not cached.
+//! transport is kept as moments against the functions of the nodes their emitter
+//! pieces lie in, times the solution's coefficients each round, and recomputed only
+//! when a node holding a smaller piece has been split.
 //!
 //! What the estimate does not see: the error of representing the emitter's radiosity
 //! by its pulled coefficients on `E` on the other links (the finer leaves under `E`
@@ -235,6 +237,12 @@ pub struct ErrorEstimate {
     /// Links whose fine transport came from the [`EstimateCache`] of an earlier call
     /// (no kernel samples or rays this time).
     pub reused_links: u64,
+    /// Detailed links with a split emitter and `(link, leaf)` pairs under them whose
+    /// finer-radiosity moments came from the [`EstimateCache`] (see the module docs).
+    pub reused_finer: u64,
+    /// Such moments the cache held but that were stale (a node holding a smaller
+    /// emitter piece had been split since) and were gathered again.
+    pub stale_finer: u64,
     /// Links evaluated without shadow rays because every ray of their transfer block
     /// agreed ([`LinkVisibility::Visible`]: integrated unoccluded;
     /// [`LinkVisibility::Blocked`]: no transport).
@@ -353,6 +361,8 @@ pub struct EstimateCache {
     key: Option<(usize, usize, u64, u32, u32, usize, usize)>,
     links: HashMap<(NodeKey, NodeKey), Moments>,
     leaves: HashMap<(NodeKey, NodeKey, NodeKey), Vec<f64>>,
+    /// [`Finer`] moments per `(receiver, emitter, cell)`.
+    finer: HashMap<(NodeKey, NodeKey, NodeKey), Finer>,
 }
 
 impl EstimateCache {
@@ -467,120 +477,83 @@ impl Emit<'_> {
 
 impl Fine<'_> {
     /// `∫_piece G V φ_b dA` for a receiver point and every emitter function `b` of the
-    /// node's orthonormal basis `φ = ψ/√A_node`, accumulated into `out[b]`; shadow
-    /// rays only when `vis` and the shaft between the point's cell `rc` and the piece
-    /// meets one of the candidate blockers `cands` ([`crate::shaft`]: a culled piece's
-    /// rays would all be visible, and are counted so), one per sample or one per
-    /// emitter cell kept in `memo` ([`EstimateOptions::vis_cells`]).
+    /// node's orthonormal basis `φ = ψ/√A_node` (or the transport of the solution's
+    /// radiosity per channel, [`Emit`]), accumulated into `out[b]`, on piece `id` of
+    /// `pieces` and its sub-pieces; shadow rays only when the call's `vis` and the
+    /// shaft between the points' cell and the piece meets one of the call's candidate
+    /// blockers ([`crate::shaft`]: a culled piece's rays would all be visible, and are
+    /// counted so), one per sample or one per emitter cell kept in `memo`
+    /// ([`EstimateOptions::vis_cells`]).
     #[allow(clippy::too_many_arguments)]
     fn gather(
         &self,
         pt: &Point,
-        pr: &Patch,
-        pe: &Patch,
-        en: &Region,
-        es: &Region,
-        emit: Emit<'_>,
-        shaft: (&Region, Option<&[u32]>),
+        call: &Call<'_>,
+        pieces: &mut Pieces<'_>,
+        id: usize,
         depth: u32,
         vdepth: u32,
-        vis: bool,
-        out: &mut [f64],
+        out: &mut Vec<f64>,
         tally: &mut Tally,
         memo: &mut CellMemo,
     ) {
-        let cov = if pe.support.mask.is_some() {
-            pe.support.coverage(es.s0, es.t0, es.h)
-        } else {
-            Coverage::Full
+        let (cov, centre, radius) = {
+            let p = &pieces.items[id];
+            (p.cov, p.centre, p.radius)
         };
         if cov == Coverage::Empty {
             return;
         }
-        let (c, rad) = pe.support.bounding_sphere(es.s0, es.t0, es.h);
-        let near = (pt.x - c).length() < self.near * rad;
+        let near = (pt.x - centre).length() < self.near * radius;
         let split_partial = cov == Coverage::Partial && depth < 3;
         if (near || split_partial) && depth < self.max_depth {
-            for (c, b) in es.split().iter().enumerate() {
-                self.gather(
-                    pt,
-                    pr,
-                    pe,
-                    en,
-                    b,
-                    emit.child(es, c),
-                    shaft,
-                    depth + 1,
-                    vdepth,
-                    vis,
-                    out,
-                    tally,
-                    memo,
-                );
+            for c in 0..4 {
+                let child = pieces.child(call, id, c);
+                self.gather(pt, call, pieces, child, depth + 1, vdepth, out, tally, memo);
             }
             return;
         }
-        let basis = self.ctx.basis();
-        let n = basis.n();
-        let (gx, gw, gc) = (&self.rule.0, &self.rule.1, &self.rule.2);
-        let q = gx.len();
-        let inv = 1.0 / (pe.support.area * en.h * en.h).sqrt();
-        let mut phi = [0.0; 16];
+        let open = call.vis && pieces.open(self, call, id);
+        let n = self.ctx.basis().n();
         let mut acc = [0.0; 16];
         let (mut seen, mut hidden) = (false, false);
-        let open = vis && self.ctx.shaft_open(shaft.0, es, shaft.1);
-        for kt in 0..q {
-            for ks in 0..q {
-                let w = weight_in(pe, es, (gx, gw, gc), ks, kt);
-                if w == 0.0 {
+        let piece = pieces.sampled(self, call, id);
+        for (k, s) in piece.samples.iter().enumerate() {
+            tally.evals += 1;
+            let g = kernel(pt.x, pt.n, s.y, s.ny);
+            if g == 0.0 {
+                continue;
+            }
+            if call.vis && !open {
+                tally.visible += 1;
+                seen = true;
+            } else if call.vis {
+                let seen_here = if self.vis_cells == 0 {
+                    self.ctx
+                        .visible(pt.v, call.pr, s.vy, call.pe, &mut tally.rays)
+                } else {
+                    self.cell_visible(pt, call, s.uv, memo, &mut tally.rays)
+                };
+                if !seen_here {
+                    tally.blocked += 1;
+                    hidden = true;
                     continue;
                 }
-                let (u, v) = (es.s0 + es.h * gx[ks], es.t0 + es.h * gx[kt]);
-                let (y, ny) = pe.support.point_normal(u, v);
-                tally.evals += 1;
-                let g = kernel(pt.x, pt.n, y, ny);
-                if g == 0.0 {
-                    continue;
-                }
-                if vis && !open {
-                    tally.visible += 1;
-                    seen = true;
-                } else if vis {
-                    let seen_here = if self.vis_cells == 0 {
-                        let vy = if pe.support.mask.is_some() {
-                            pe.support.visibility_point(u, v)
-                        } else {
-                            y
-                        };
-                        self.ctx.visible(pt.v, pr, vy, pe, &mut tally.rays)
-                    } else {
-                        self.cell_visible(pt, pr, pe, en, (u, v), memo, &mut tally.rays)
-                    };
-                    if !seen_here {
-                        tally.blocked += 1;
-                        hidden = true;
-                        continue;
+                tally.visible += 1;
+                seen = true;
+            }
+            let fv = &piece.f[k * n..][..n];
+            match piece.emit {
+                Emit::Moments => {
+                    let f = s.w * g * piece.scale;
+                    for b in 0..n {
+                        acc[b] += f * fv[b];
                     }
-                    tally.visible += 1;
-                    seen = true;
                 }
-                match emit {
-                    Emit::Moments => {
-                        let f = w * g * inv;
-                        basis.eval((u - en.s0) / en.h, (v - en.t0) / en.h, &mut phi[..n]);
-                        for b in 0..n {
-                            acc[b] += f * phi[b];
-                        }
-                    }
-                    Emit::Values { sol, node } => {
-                        let sys = &sol.system;
-                        let fr = sys.h.keys[node as usize].region();
-                        let f = w * g / sys.node_area[node as usize].sqrt();
-                        basis.eval((u - fr.s0) / fr.h, (v - fr.t0) / fr.h, &mut phi[..n]);
-                        for (c, a) in acc.iter_mut().take(3).enumerate() {
-                            let coef = &sol.node_b[c][node as usize * n..][..n];
-                            *a += f * coef.iter().zip(&phi[..n]).map(|(x, y)| x * y).sum::<f64>();
-                        }
+                Emit::Values { .. } => {
+                    let f = s.w * g / piece.scale;
+                    for b in 0..n {
+                        acc[b] += f * fv[b];
                     }
                 }
             }
@@ -588,18 +561,15 @@ impl Fine<'_> {
         if seen && hidden && vdepth < self.vis_depth {
             // A shadow boundary crosses the piece: its q² rays resolve the visible
             // part only to ~1/q²; integrate the quarters instead.
-            for (c, b) in es.split().iter().enumerate() {
+            for c in 0..4 {
+                let child = pieces.child(call, id, c);
                 self.gather(
                     pt,
-                    pr,
-                    pe,
-                    en,
-                    b,
-                    emit.child(es, c),
-                    shaft,
+                    call,
+                    pieces,
+                    child,
                     depth + 1,
                     vdepth + 1,
-                    vis,
                     out,
                     tally,
                     memo,
@@ -607,24 +577,28 @@ impl Fine<'_> {
             }
             return;
         }
-        out.iter_mut().zip(&acc).for_each(|(o, a)| *o += a);
+        let at = piece.slot * n;
+        if out.len() < at + n {
+            out.resize(at + n, 0.0);
+        }
+        out[at..at + n]
+            .iter_mut()
+            .zip(&acc)
+            .for_each(|(o, a)| *o += a);
     }
-
-    /// Whether the point sees the emitter sample at parameters `uv` of the link's
-    /// emitter node `en`, answered by the ray to the centre of the sample's cell
-    /// among `vis_cells × vis_cells` equal cells of `en` (its visibility point on a
-    /// masked support), shot once per point and cell (`memo`).
-    #[allow(clippy::too_many_arguments)]
+    /// Whether the point sees the emitter sample at parameters `uv` of the call's
+    /// emitter node, answered by the ray to the centre of the sample's cell among
+    /// `vis_cells × vis_cells` equal cells of the node (its visibility point on a
+    /// masked support, [`Call::cells`]), shot once per point and cell (`memo`).
     fn cell_visible(
         &self,
         pt: &Point,
-        pr: &Patch,
-        pe: &Patch,
-        en: &Region,
+        call: &Call<'_>,
         uv: (f64, f64),
         memo: &mut CellMemo,
         rays: &mut u64,
     ) -> bool {
+        let en = &call.en;
         let g = self.vis_cells;
         let cells = g as f64;
         // Negative offsets (rounding at the node's edge) saturate to cell 0.
@@ -632,20 +606,261 @@ impl Fine<'_> {
         let (i, j) = (cell(uv.0, en.s0), cell(uv.1, en.t0));
         let slot = &mut memo[j * g + i];
         if *slot == 0 {
-            let cu = en.s0 + en.h * (i as f64 + 0.5) / cells;
-            let cv = en.t0 + en.h * (j as f64 + 0.5) / cells;
-            let vy = if pe.support.mask.is_some() {
-                pe.support.visibility_point(cu, cv)
-            } else {
-                pe.support.point_normal(cu, cv).0
-            };
-            *slot = if self.ctx.visible(pt.v, pr, vy, pe, rays) {
+            let vy = call.cells[j * g + i];
+            *slot = if self.ctx.visible(pt.v, call.pr, vy, call.pe, rays) {
                 1
             } else {
                 2
             };
         }
         *slot == 1
+    }
+}
+
+/// What stays fixed over the receiver points of one [`fine_at`] call: the link's
+/// patches and emitter node, the cell holding the points with the candidate blockers
+/// of its shaft to the emitter ([`crate::shaft`]), whether rays are shot, and the
+/// visibility points of the emitter node's `vis_cells × vis_cells` cell centres
+/// ([`Fine::cell_visible`]).
+struct Call<'a> {
+    pr: &'a Patch,
+    pe: &'a Patch,
+    en: Region,
+    cell: Region,
+    cands: Option<Vec<u32>>,
+    vis: bool,
+    /// `1/√A_en` (the orthonormal scale of the emitter node's functions).
+    inv: f64,
+    cells: Vec<DVec3>,
+}
+
+impl<'a> Call<'a> {
+    fn new(
+        fine: &Fine<'_>,
+        pr: &'a Patch,
+        pe: &'a Patch,
+        en: Region,
+        cell: Region,
+        vis: bool,
+    ) -> Self {
+        let cands = if vis {
+            fine.ctx.shaft_candidates(&cell, &en, None)
+        } else {
+            None
+        };
+        let g = fine.vis_cells;
+        let cells = if vis && g > 0 {
+            let n = g as f64;
+            (0..g * g)
+                .map(|k| {
+                    let (i, j) = (k % g, k / g);
+                    let cu = en.s0 + en.h * (i as f64 + 0.5) / n;
+                    let cv = en.t0 + en.h * (j as f64 + 0.5) / n;
+                    if pe.support.mask.is_some() {
+                        pe.support.visibility_point(cu, cv)
+                    } else {
+                        pe.support.point_normal(cu, cv).0
+                    }
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        Self {
+            pr,
+            pe,
+            inv: 1.0 / (pe.support.area * en.h * en.h).sqrt(),
+            en,
+            cell,
+            cands,
+            vis,
+            cells,
+        }
+    }
+}
+
+/// One emitter sample of a piece with non-zero weight.
+struct Sample {
+    /// Parameters.
+    uv: (f64, f64),
+    /// Point and unit normal.
+    y: DVec3,
+    ny: DVec3,
+    /// Visibility point (ṽ on a masked support, else `y`).
+    vy: DVec3,
+    /// Quadrature weight in true area ([`weight_in`]).
+    w: f64,
+}
+
+/// An emitter piece visited by a [`fine_at`] call: what does not depend on the
+/// receiver point, computed once for all the call's points.
+struct Piece<'s> {
+    region: Region,
+    emit: Emit<'s>,
+    cov: Coverage,
+    centre: DVec3,
+    radius: f64,
+    /// Sub-pieces ([`Region::split`] order; `u32::MAX` until visited).
+    children: [u32; 4],
+    /// Whether the shaft test lets rays through (once asked).
+    open: Option<bool>,
+    /// Samples with non-zero weight (once the piece is integrated).
+    samples: Vec<Sample>,
+    sampled: bool,
+    /// Per sample, the `n` functions `ψ_b` of the emitter node ([`Emit::Moments`]) or
+    /// of the piece's node ([`Emit::Values`]).
+    f: Vec<f64>,
+    /// [`Emit::Moments`]: `1/√A_en`; [`Emit::Values`]: `√A` of the piece's node.
+    scale: f64,
+    /// Where the piece's moments go in a point's output: `0` ([`Emit::Moments`]), or
+    /// the index of its node in [`Pieces::nodes`] ([`Emit::Values`]).
+    slot: usize,
+}
+
+/// The emitter pieces of one [`fine_at`] call, a quadtree under the link's emitter
+/// node grown as the receiver points' near-field and shadow-boundary splits ask. The
+/// points share each piece's coverage, bounding sphere, shaft test, samples and
+/// emitter functions; what is computed per point (kernel, rays, sums) is the same
+/// arithmetic in the same order as without sharing, so the fine transport is bitwise
+/// the same.
+struct Pieces<'s> {
+    items: Vec<Piece<'s>>,
+    /// [`Emit::Values`]: the hierarchy nodes the pieces lie in, in the order first
+    /// met, and whether a piece lay strictly inside the node (a leaf then: see
+    /// [`Finer`]).
+    nodes: Vec<(u32, bool)>,
+}
+
+impl<'s> Pieces<'s> {
+    /// The pieces with the emitter node as the root (index 0).
+    fn new(call: &Call<'_>, emit: Emit<'s>) -> Self {
+        let mut p = Self {
+            items: Vec::new(),
+            nodes: Vec::new(),
+        };
+        p.push(call, call.en, emit);
+        p
+    }
+
+    fn push(&mut self, call: &Call<'_>, region: Region, emit: Emit<'s>) -> usize {
+        let sup = &call.pe.support;
+        let cov = if sup.mask.is_some() {
+            sup.coverage(region.s0, region.t0, region.h)
+        } else {
+            Coverage::Full
+        };
+        let (centre, radius) = if cov == Coverage::Empty {
+            (DVec3::ZERO, 0.0)
+        } else {
+            sup.bounding_sphere(region.s0, region.t0, region.h)
+        };
+        let slot = match emit {
+            Emit::Moments => 0,
+            Emit::Values { sol, node } => {
+                let strict = region.h < sol.system.h.keys[node as usize].region().h;
+                match self.nodes.iter().position(|&(k, _)| k == node) {
+                    Some(i) => {
+                        self.nodes[i].1 |= strict;
+                        i
+                    }
+                    None => {
+                        self.nodes.push((node, strict));
+                        self.nodes.len() - 1
+                    }
+                }
+            }
+        };
+        self.items.push(Piece {
+            region,
+            emit,
+            cov,
+            centre,
+            radius,
+            children: [u32::MAX; 4],
+            open: None,
+            samples: Vec::new(),
+            sampled: false,
+            f: Vec::new(),
+            scale: 0.0,
+            slot,
+        });
+        self.items.len() - 1
+    }
+
+    /// Index of child `c` of piece `id`, created on first use.
+    fn child(&mut self, call: &Call<'_>, id: usize, c: usize) -> usize {
+        let k = self.items[id].children[c];
+        if k != u32::MAX {
+            return k as usize;
+        }
+        let (region, emit) = {
+            let p = &self.items[id];
+            (p.region.split()[c], p.emit.child(&p.region, c))
+        };
+        let k = self.push(call, region, emit);
+        self.items[id].children[c] = k as u32;
+        k
+    }
+
+    /// Whether the shaft between the call's cell and piece `id` may be blocked.
+    fn open(&mut self, fine: &Fine<'_>, call: &Call<'_>, id: usize) -> bool {
+        let p = &mut self.items[id];
+        *p.open.get_or_insert_with(|| {
+            fine.ctx
+                .shaft_open(&call.cell, &p.region, call.cands.as_deref())
+        })
+    }
+
+    /// Piece `id` with its samples and emitter functions.
+    fn sampled(&mut self, fine: &Fine<'_>, call: &Call<'_>, id: usize) -> &Piece<'s> {
+        let p = &mut self.items[id];
+        if !p.sampled {
+            p.sampled = true;
+            sample_piece(fine, call, p);
+        }
+        &self.items[id]
+    }
+}
+
+/// Fills the samples and emitter functions of a piece (see [`Piece`]).
+fn sample_piece(fine: &Fine<'_>, call: &Call<'_>, p: &mut Piece<'_>) {
+    let basis = fine.ctx.basis();
+    let n = basis.n();
+    let (gx, gw, gc) = (&fine.rule.0, &fine.rule.1, &fine.rule.2);
+    let q = gx.len();
+    let (pe, es, en) = (call.pe, &p.region, &call.en);
+    let mut phi = [0.0; 16];
+    p.scale = match p.emit {
+        Emit::Moments => call.inv,
+        Emit::Values { sol, node } => sol.system.node_area[node as usize].sqrt(),
+    };
+    for kt in 0..q {
+        for ks in 0..q {
+            let w = weight_in(pe, es, (gx, gw, gc), ks, kt);
+            if w == 0.0 {
+                continue;
+            }
+            let (u, v) = (es.s0 + es.h * gx[ks], es.t0 + es.h * gx[kt]);
+            let (y, ny) = pe.support.point_normal(u, v);
+            let vy = if fine.vis_cells == 0 && pe.support.mask.is_some() {
+                pe.support.visibility_point(u, v)
+            } else {
+                y
+            };
+            p.samples.push(Sample {
+                uv: (u, v),
+                y,
+                ny,
+                vy,
+                w,
+            });
+            let fr = match p.emit {
+                Emit::Moments => *en,
+                Emit::Values { sol, node } => sol.system.h.keys[node as usize].region(),
+            };
+            basis.eval((u - fr.s0) / fr.h, (v - fr.t0) / fr.h, &mut phi[..n]);
+            p.f.extend_from_slice(&phi[..n]);
+        }
     }
 }
 
@@ -783,6 +998,9 @@ struct Gathered {
     tally: Tally,
     links: HashSet<(NodeKey, NodeKey)>,
     leaves: HashSet<(NodeKey, NodeKey, NodeKey)>,
+    finer: HashSet<(NodeKey, NodeKey, NodeKey)>,
+    /// [`Finer`] moments reused and found stale.
+    finer_counts: [u64; 2],
 }
 
 /// The fine irradiance `H_fine` per channel at every residual point (`pts` per leaf),
@@ -811,13 +1029,17 @@ fn fine_irradiance(
                 .iter()
                 .flat_map(|&r| h.recv_offsets[r as usize]..h.recv_offsets[r as usize + 1])
                 .collect();
-            let detailed = gather_links(fine, sol, &links, pts, recv_rule, cache, est, &mut hf);
+            let detailed = gather_links(
+                fine, sol, &links, pts, recv_rule, cache, est, &mut used, &mut hf,
+            );
             gather_detailed(fine, sol, &detailed, pts, cache, &mut used, &mut hf);
             used.links.extend(links.iter().map(|&l| link_key(h, l)));
         }
     }
     cache.links.retain(|k, _| used.links.contains(k));
     cache.leaves.retain(|k, _| used.leaves.contains(k));
+    cache.finer.retain(|k, _| used.finer.contains(k));
+    [est.reused_finer, est.stale_finer] = used.finer_counts;
     est.kernel_evals += used.tally.evals;
     est.rays += used.tally.rays;
     hf
@@ -845,6 +1067,7 @@ fn gather_links(
     recv_rule: &Rule,
     cache: &mut EstimateCache,
     est: &mut ErrorEstimate,
+    used: &mut Gathered,
     hf: &mut [Vec<[f64; 3]>],
 ) -> Vec<(usize, usize)> {
     let h = &sol.system.h;
@@ -868,16 +1091,20 @@ fn gather_links(
         cache.links.insert(link_key(h, l), m);
     }
     // Detailed links with a split emitter: their transport with the emitter's finer
-    // radiosity ([`Emit::Values`]), which depends on the solution (not cached).
-    let finer: Vec<Option<(Vec<[f64; 3]>, Tally)>> = links
+    // radiosity ([`Finer`]).
+    let finer_key = |l: usize| {
+        let (r, e) = link_key(h, l);
+        (r, e, r)
+    };
+    let finer: Vec<Option<FinerOut>> = links
         .par_iter()
         .map(|&l| {
             let mom = &cache.links[&link_key(h, l)];
             (mom.detailed && split_emitter(h, l)).then(|| {
                 let rk = h.keys[h.link_receiver[l] as usize];
                 let rp = leaf_points(&sol.patches[rk.patch as usize], &rk.region(), recv_rule);
-                let (v, t) = fine_at(fine, sol, l, &rk.region(), &rp, true);
-                (rgb(&v), t)
+                let cached = cache.finer.get(&finer_key(l));
+                Finer::transport(fine, sol, l, &rk.region(), &rp, cached)
             })
         })
         .collect();
@@ -885,9 +1112,15 @@ fn gather_links(
     for (&l, finer) in links.iter().zip(finer) {
         let mom = &cache.links[&link_key(h, l)];
         let f = match finer {
-            Some((f, t)) => {
+            Some((f, how, fresh)) => {
+                let mut t = Tally::default();
+                how.count(&mut t, &mut used.finer_counts);
                 est.kernel_evals += t.evals;
                 est.rays += t.rays;
+                if let Some(fresh) = fresh {
+                    cache.finer.insert(finer_key(l), fresh);
+                }
+                used.finer.insert(finer_key(l));
                 f
             }
             None => transport(sol, l, &mom.m, recv_rule.0.len().pow(2)),
@@ -937,14 +1170,14 @@ fn gather_detailed(
         .copied()
         .filter(|&(l, li)| !split_emitter(h, l) && !cache.leaves.contains_key(&leaf_key(l, li)))
         .collect();
-    // Pairs under a split emitter: the transport of its finer radiosity (not cached).
-    let finer: Vec<Option<(Vec<[f64; 3]>, Tally)>> = detailed
+    // Pairs under a split emitter: the transport of its finer radiosity ([`Finer`]).
+    let finer: Vec<Option<FinerOut>> = detailed
         .par_iter()
         .map(|&(l, li)| {
             split_emitter(h, l).then(|| {
                 let leaf = h.keys[h.leaves[li] as usize].region();
-                let (v, t) = fine_at(fine, sol, l, &leaf, &pts[li], true);
-                (rgb(&v), t)
+                let cached = cache.finer.get(&leaf_key(l, li));
+                Finer::transport(fine, sol, l, &leaf, &pts[li], cached)
             })
         })
         .collect();
@@ -952,7 +1185,7 @@ fn gather_detailed(
         .par_iter()
         .map(|&(l, li)| {
             let leaf = h.keys[h.leaves[li] as usize].region();
-            fine_at(fine, sol, l, &leaf, &pts[li], false)
+            fine_at(fine, sol, l, &leaf, &pts[li])
         })
         .collect();
     for (&(l, li), (m, t)) in missing.iter().zip(extra) {
@@ -961,8 +1194,12 @@ fn gather_detailed(
     }
     for (&(l, li), finer) in detailed.iter().zip(finer) {
         let v = match finer {
-            Some((v, t)) => {
-                used.tally.add(&t);
+            Some((v, how, fresh)) => {
+                how.count(&mut used.tally, &mut used.finer_counts);
+                if let Some(fresh) = fresh {
+                    cache.finer.insert(leaf_key(l, li), fresh);
+                }
+                used.finer.insert(leaf_key(l, li));
                 v
             }
             None => {
@@ -1157,6 +1394,38 @@ fn link_rays(fine: &Fine<'_>, sol: &Solution, l: usize) -> Option<bool> {
     }
 }
 
+/// The fine gather of link `l` at the given points of the cell `cell` (its receiver
+/// or a leaf under it) against `emit`: per point, the moments of every piece slot
+/// (`n` per slot, [`Piece::slot`]), and the pieces; `None` when the link carries
+/// nothing.
+fn gather_points<'s>(
+    fine: &Fine<'_>,
+    sol: &'s Solution,
+    l: usize,
+    cell: &Region,
+    pts: &[Point],
+    emit: Emit<'s>,
+    tally: &mut Tally,
+) -> Option<(Vec<Vec<f64>>, Pieces<'s>)> {
+    let h = &sol.system.h;
+    let vis = link_rays(fine, sol, l)?;
+    let pr = &sol.patches[h.keys[h.link_receiver[l] as usize].patch as usize];
+    let ek = h.keys[h.link_emitter[l] as usize];
+    let pe = &sol.patches[ek.patch as usize];
+    let call = Call::new(fine, pr, pe, ek.region(), *cell, vis);
+    let mut pieces = Pieces::new(&call, emit);
+    let out = pts
+        .iter()
+        .map(|pt| {
+            let mut out = vec![0.0; h.n];
+            let mut memo: CellMemo = [0; MAX_VIS_CELLS * MAX_VIS_CELLS];
+            fine.gather(pt, &call, &mut pieces, 0, 0, 0, &mut out, tally, &mut memo);
+            out
+        })
+        .collect();
+    Some((out, pieces))
+}
+
 /// Fine transport moments of link `l` at the given points of the cell `cell` (its
 /// receiver or a leaf under it): `[point · n + b]`, empty when the link carries
 /// nothing.
@@ -1166,54 +1435,158 @@ fn fine_at(
     l: usize,
     cell: &Region,
     pts: &[Point],
-    values: bool,
 ) -> (Vec<f64>, Tally) {
-    let h = &sol.system.h;
-    let (n, emit) = if values {
-        (
-            3,
-            Emit::Values {
-                sol,
-                node: h.link_emitter[l],
-            },
-        )
-    } else {
-        (h.n, Emit::Moments)
-    };
     let mut tally = Tally::default();
-    let Some(vis) = link_rays(fine, sol, l) else {
-        return (Vec::new(), tally);
-    };
-    let pr = &sol.patches[h.keys[h.link_receiver[l] as usize].patch as usize];
-    let ek = h.keys[h.link_emitter[l] as usize];
-    let pe = &sol.patches[ek.patch as usize];
-    let ereg = ek.region();
-    let mut m = vec![0.0; pts.len() * n];
-    // The blockers that may meet the shaft between the points' cell and the emitter.
-    let cands = if vis {
-        fine.ctx.shaft_candidates(cell, &ereg, None)
-    } else {
-        None
-    };
-    for (pt, out) in pts.iter().zip(m.chunks_exact_mut(n)) {
-        let mut memo: CellMemo = [0; MAX_VIS_CELLS * MAX_VIS_CELLS];
-        fine.gather(
-            pt,
-            pr,
-            pe,
-            &ereg,
-            &ereg,
-            emit,
-            (cell, cands.as_deref()),
-            0,
-            0,
-            vis,
-            out,
-            &mut tally,
-            &mut memo,
-        );
-    }
+    let m = gather_points(fine, sol, l, cell, pts, Emit::Moments, &mut tally)
+        .map_or_else(Vec::new, |(out, _)| out.concat());
     (m, tally)
+}
+
+/// The fine transport of a detailed link whose emitter node is split, at the points
+/// of a cell, as moments against the functions of the hierarchy nodes its emitter
+/// pieces lie in ([`Emit::Values`]): the transport is then the solution's
+/// coefficients of those nodes times the moments ([`Finer::values`]). The moments
+/// depend on the geometry and on which node each piece lies in, not on the solution,
+/// so they are kept between the rounds of [`crate::target`] while every node that
+/// held a piece strictly inside it is still a leaf (a split one would now give that
+/// piece a finer function).
+#[derive(Debug, Clone)]
+struct Finer {
+    /// The nodes, in slot order, and whether a piece lay strictly inside.
+    nodes: Vec<(NodeKey, bool)>,
+    /// `[point · nodes · n + slot · n + b]`; empty when the link carries nothing.
+    m: Vec<f64>,
+}
+
+impl Finer {
+    /// The gather of link `l` at the points of `cell` ([`Finer`]),
+    /// and the transport it gives with `sol`'s coefficients ([`Self::values`]).
+    fn at(
+        fine: &Fine<'_>,
+        sol: &Solution,
+        l: usize,
+        cell: &Region,
+        pts: &[Point],
+    ) -> (Self, Vec<[f64; 3]>, Tally) {
+        let h = &sol.system.h;
+        let mut tally = Tally::default();
+        let emit = Emit::Values {
+            sol,
+            node: h.link_emitter[l],
+        };
+        let Some((out, pieces)) = gather_points(fine, sol, l, cell, pts, emit, &mut tally) else {
+            let none = Self {
+                nodes: Vec::new(),
+                m: Vec::new(),
+            };
+            return (none, vec![[0.0; 3]; pts.len()], tally);
+        };
+        let width = pieces.nodes.len().max(1) * h.n;
+        let mut m = Vec::with_capacity(pts.len() * width);
+        for mut o in out {
+            o.resize(width, 0.0);
+            m.extend(o);
+        }
+        let nodes = pieces
+            .nodes
+            .iter()
+            .map(|&(i, strict)| (h.keys[i as usize], strict))
+            .collect();
+        let f = Self { nodes, m };
+        let idx: Vec<usize> = pieces.nodes.iter().map(|&(i, _)| i as usize).collect();
+        let v = f.dot(sol, &idx, pts.len());
+        (f, v, tally)
+    }
+
+    /// The transport per point and channel with `sol`'s coefficients, `None` when a
+    /// node that held a piece strictly inside is no longer a leaf of `sol`'s
+    /// hierarchy (or is missing): the moments are then stale.
+    fn values(&self, sol: &Solution, l: usize, points: usize) -> Option<Vec<[f64; 3]>> {
+        let h = &sol.system.h;
+        let e = h.link_emitter[l];
+        let idx = self
+            .nodes
+            .iter()
+            .map(|&(k, strict)| {
+                let i = descend(h, e, k)?;
+                (!strict || h.children[i as usize][0] == u32::MAX).then_some(i as usize)
+            })
+            .collect::<Option<Vec<usize>>>()?;
+        Some(self.dot(sol, &idx, points))
+    }
+
+    /// The transport per point and channel with the coefficients of `sol`'s nodes
+    /// `idx` (one per slot).
+    fn dot(&self, sol: &Solution, idx: &[usize], points: usize) -> Vec<[f64; 3]> {
+        if self.m.is_empty() {
+            return vec![[0.0; 3]; points];
+        }
+        let n = sol.system.h.n;
+        let width = idx.len().max(1) * n;
+        self.m
+            .chunks_exact(width)
+            .map(|mp| {
+                std::array::from_fn(|c| {
+                    let mut v = 0.0;
+                    for (j, &i) in idx.iter().enumerate() {
+                        let coef = &sol.node_b[c][i * n..][..n];
+                        v += coef
+                            .iter()
+                            .zip(&mp[j * n..][..n])
+                            .map(|(a, b)| a * b)
+                            .sum::<f64>();
+                    }
+                    v
+                })
+            })
+            .collect()
+    }
+
+    /// The transport of link `l` at the points of `cell` with `sol`'s coefficients:
+    /// from `cached` while its moments hold, else gathered afresh (and returned to be
+    /// kept).
+    fn transport(
+        fine: &Fine<'_>,
+        sol: &Solution,
+        l: usize,
+        cell: &Region,
+        pts: &[Point],
+        cached: Option<&Self>,
+    ) -> FinerOut {
+        if let Some(v) = cached.and_then(|f| f.values(sol, l, pts.len())) {
+            return (v, Finery::Reused, None);
+        }
+        let (f, v, t) = Self::at(fine, sol, l, cell, pts);
+        let how = if cached.is_some() {
+            Finery::Stale(t)
+        } else {
+            Finery::Fresh(t)
+        };
+        (v, how, Some(f))
+    }
+}
+
+/// The node of `key` in `h`, found from its ancestor node `from`; `None` when `key`
+/// is not under `from` or not in `h`.
+fn descend(h: &crate::hierarchy::Hierarchy, from: u32, key: NodeKey) -> Option<u32> {
+    let top = h.keys[from as usize];
+    let mut path = Vec::new();
+    let mut k = key;
+    while k.level > top.level {
+        path.push(k.child_pos());
+        k = k.parent()?;
+    }
+    if k != top {
+        return None;
+    }
+    let mut i = from;
+    for &c in path.iter().rev() {
+        i = h.children[i as usize][c];
+        if i == u32::MAX {
+            return None;
+        }
+    }
+    Some(i)
 }
 
 /// The fine transport moments of link `l` at the residual points of its receiver
@@ -1226,7 +1599,7 @@ fn link_moments(fine: &Fine<'_>, sol: &Solution, l: usize, rule: &Rule) -> (Mome
     let ek = h.keys[h.link_emitter[l] as usize];
     let pe = &sol.patches[ek.patch as usize];
     let pts = leaf_points(pr, &rreg, rule);
-    let (m, tally) = fine_at(fine, sol, l, &rreg, &pts, false);
+    let (m, tally) = fine_at(fine, sol, l, &rreg, &pts);
     let (cr, rr) = pr.support.bounding_sphere(rreg.s0, rreg.t0, rreg.h);
     let ereg = ek.region();
     let (ce, re) = pe.support.bounding_sphere(ereg.s0, ereg.t0, ereg.h);
@@ -1271,9 +1644,30 @@ fn split_emitter(h: &crate::hierarchy::Hierarchy, l: usize) -> bool {
     h.children[h.link_emitter[l] as usize][0] != u32::MAX
 }
 
-/// Per-channel triples from a flat `[point · 3 + c]` vector.
-fn rgb(v: &[f64]) -> Vec<[f64; 3]> {
-    v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+/// What [`Finer::transport`] gives: the transport per point and channel, how it was
+/// obtained, and fresh moments to keep.
+type FinerOut = (Vec<[f64; 3]>, Finery, Option<Finer>);
+
+/// How [`Finer::transport`] got its moments: from the cache, gathered for the first
+/// time, or gathered again because the cached ones were stale (with the work done).
+enum Finery {
+    Reused,
+    Fresh(Tally),
+    Stale(Tally),
+}
+
+impl Finery {
+    /// Adds the work to `tally` and the cache outcome to `counts` (reused, stale).
+    fn count(&self, tally: &mut Tally, counts: &mut [u64; 2]) {
+        match self {
+            Finery::Reused => counts[0] += 1,
+            Finery::Fresh(t) => tally.add(t),
+            Finery::Stale(t) => {
+                counts[1] += 1;
+                tally.add(t);
+            }
+        }
+    }
 }
 
 /// Node indices of the leaves in the subtree of `node`.

@@ -280,6 +280,47 @@ fn cached_estimate_equals_a_fresh_one() {
     assert_eq!(other.reused_links, 0);
 }
 
+/// Detailed links whose emitter node is split (near pairs on the Cornell box) keep
+/// their finer-radiosity moments in the cache: a second call reuses every one and
+/// shoots no ray, and a refined solution estimated with the coarse one's cache, where
+/// some emitter nodes holding smaller pieces have been split since, gathers those
+/// again and gets exactly (bitwise) the estimate of an empty cache.
+#[test]
+fn finer_moments_are_reused_while_their_nodes_hold() {
+    let scene = builtin("cornell-box").unwrap();
+    let opts = EstimateOptions::default();
+    let solved = |level: u8, eps: f64| {
+        let prep = Prepared::new(&scene, &config(BasisKind::Multiwavelet(2), level, eps)).unwrap();
+        let sol = solve_prepared(&prep).unwrap();
+        (prep, sol)
+    };
+    let same = |a: &wavelux_solver::ErrorEstimate, b: &wavelux_solver::ErrorEstimate| {
+        assert_eq!(a.relative_l1.to_bits(), b.relative_l1.to_bits());
+        assert_eq!(a.leaf_error, b.leaf_error);
+        assert_eq!(a.link_error, b.link_error);
+    };
+    let mut cache = EstimateCache::new();
+    let (prep, sol) = solved(1, 1e-2);
+    let ctx = prep.transfer().unwrap();
+    let first = estimate_cached(&ctx, &sol, &opts, &mut cache).unwrap();
+    let again = estimate_cached(&ctx, &sol, &opts, &mut cache).unwrap();
+    same(&first, &again);
+    assert_eq!(first.reused_finer, 0);
+    assert!(again.reused_finer > 0, "no finer moments to reuse");
+    assert_eq!((again.stale_finer, again.rays), (0, 0));
+    let (prep2, fine) = solved(2, 1e-3);
+    let ctx2 = prep2.transfer().unwrap();
+    let fresh = estimate(&ctx2, &fine, &opts).unwrap();
+    let reused = estimate_cached(&ctx2, &fine, &opts, &mut cache).unwrap();
+    same(&fresh, &reused);
+    assert!(
+        reused.reused_finer > 0 && reused.stale_finer > 0,
+        "finer reused {}, stale {}",
+        reused.reused_finer,
+        reused.stale_finer
+    );
+}
+
 /// The per-leaf and per-patch parts add up to the whole: patch sums are the scene's
 /// error and normaliser, a leaf's signed error per channel is bounded by its absolute
 /// one, the patches' areas are their real areas, and the worst patch is the largest
