@@ -217,6 +217,10 @@ pub struct ErrorEstimate {
     pub patch_reflected: Vec<f64>,
     /// Real area of every patch (m²) as the residual points integrate it.
     pub patch_area: Vec<f64>,
+    /// Per patch, channel by channel: `[∫|e_c| dA, ∫|B_h,c − E_c| dA, ∫E_c dA]` (W),
+    /// the parts of [`Self::patch_error`], [`Self::patch_reflected`] and
+    /// [`Self::patch_emitted`] ([`Self::patch_relative_channels`]).
+    pub patch_channels: Vec<[[f64; 3]; 3]>,
     /// `Σ_c E_c · area` per patch (W): its emitted part, which
     /// [`Self::patch_relative`] adds to the normaliser (an emitter's error is seen
     /// against the radiosity it shows).
@@ -289,14 +293,79 @@ impl ErrorEstimate {
             .collect()
     }
 
+    /// Estimated relative L1 error of every patch in each channel: `∫|e_c|` over
+    /// `max(∫|B_h,c − E_c| + ∫E_c, DARK_FACE · D̄_c · area)`, [`Self::patch_normaliser`]
+    /// channel by channel (`D̄_c` the channel's mean reflected radiosity over the
+    /// patches that reflect anything); `0` where there is no error. A coloured face's
+    /// dim channel is judged against its own radiosity, as a per-channel comparison
+    /// of the face's mean does (the `cornell-faces` reproduction).
+    pub fn patch_relative_channels(&self) -> Vec<[f64; 3]> {
+        self.patch_channels
+            .iter()
+            .zip(self.patch_normaliser_channels())
+            .map(|(pc, den)| {
+                std::array::from_fn(|c| {
+                    if pc[0][c] > 0.0 && den[c] > 0.0 {
+                        pc[0][c] / den[c]
+                    } else {
+                        0.0
+                    }
+                })
+            })
+            .collect()
+    }
+
+    /// The normaliser of [`Self::patch_relative_channels`] per patch and channel (W).
+    pub fn patch_normaliser_channels(&self) -> Vec<[f64; 3]> {
+        let (mut d, mut a) = ([0.0; 3], 0.0);
+        for (pc, ar) in self.patch_channels.iter().zip(&self.patch_area) {
+            if pc[1].iter().sum::<f64>() > 0.0 {
+                (0..3).for_each(|c| d[c] += pc[1][c]);
+                a += ar;
+            }
+        }
+        let mean = d.map(|x| if a > 0.0 { x / a } else { 0.0 });
+        self.patch_channels
+            .iter()
+            .zip(&self.patch_area)
+            .map(|(pc, ar)| {
+                std::array::from_fn(|c| (pc[1][c] + pc[2][c]).max(DARK_FACE * mean[c] * ar))
+            })
+            .collect()
+    }
+
+    /// Every patch's relative error as a face goal judges it: its worst channel
+    /// ([`Self::patch_relative_channels`]) when `per_channel`, else the channels
+    /// together ([`Self::patch_relative`]).
+    pub fn face_errors(&self, per_channel: bool) -> Vec<f64> {
+        if per_channel {
+            self.patch_relative_channels()
+                .iter()
+                .map(|r| r.iter().fold(0.0f64, |a, &b| a.max(b)))
+                .collect()
+        } else {
+            self.patch_relative()
+        }
+    }
+
     /// The patch with the largest [`Self::patch_relative`] error and that error
     /// (`None` without patches).
     pub fn worst_patch(&self) -> Option<(usize, f64)> {
-        self.patch_relative()
-            .into_iter()
-            .enumerate()
-            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
+        worst(self.patch_relative())
     }
+
+    /// The patch with the largest [`Self::face_errors`] and that error (`None`
+    /// without patches).
+    pub fn worst_face(&self, per_channel: bool) -> Option<(usize, f64)> {
+        worst(self.face_errors(per_channel))
+    }
+}
+
+/// The index of the largest value and that value (the first of equal ones).
+fn worst(v: Vec<f64>) -> Option<(usize, f64)> {
+    v.into_iter()
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
 }
 
 /// One residual point of a leaf.
@@ -912,6 +981,7 @@ pub fn estimate_cached(
         patch_error: vec![0.0; patches.len()],
         patch_reflected: vec![0.0; patches.len()],
         patch_area: vec![0.0; patches.len()],
+        patch_channels: vec![[[0.0; 3]; 3]; patches.len()],
         patch_emitted: vec![0.0; patches.len()],
         ..ErrorEstimate::default()
     };
@@ -1342,6 +1412,10 @@ fn accumulate(
                 est.leaf_error[l] += pt.wr * e.abs();
                 est.leaf_mean_error[l][c] += pt.wr * e;
                 est.leaf_reflected[l] += pt.wr * d;
+                let pc = &mut est.patch_channels[key.patch as usize];
+                pc[0][c] += pt.wr * e.abs();
+                pc[1][c] += pt.wr * d;
+                pc[2][c] += pt.wr * patch.emission[c];
             }
             est.points += 1;
             est.patch_area[key.patch as usize] += pt.wr;

@@ -71,6 +71,15 @@ pub struct TargetConfig {
     /// by tens of percent (the Cornell box's short block at 2 %: +42 %) because they
     /// weigh little in it.
     pub face_target: Option<f64>,
+    /// Whether a face must meet its goal in every channel
+    /// ([`ErrorEstimate::patch_relative_channels`], its worst channel judged, as the
+    /// `cornell-faces` reproduction judges a face's mean) instead of with the channels
+    /// summed ([`ErrorEstimate::patch_relative`], where a coloured face's dim channel
+    /// weighs little). Off by default: on the built-in Cornell box (default target,
+    /// session 29) it took 6 rounds and 152 858 links to a texel L1 of 0.892 %,
+    /// against 5 rounds, 209 179 links and 0.856 % with the channels summed
+    /// (docs/performance.md).
+    pub face_channels: bool,
     /// Most refine–solve rounds (`≥ 1`).
     pub max_rounds: usize,
     /// Largest Dörfler fraction `θ ∈ (0, 1]`: each round splits the links with the
@@ -100,6 +109,7 @@ impl Default for TargetConfig {
                 ..SolverConfig::default()
             },
             face_target: None,
+            face_channels: false,
             max_rounds: 12,
             bulk: 0.8,
             estimate: EstimateOptions::default(),
@@ -280,6 +290,97 @@ pub fn solve_to_target_on(
     backends: Backends<'_>,
 ) -> Result<TargetOutcome, SolverError> {
     cfg.validate()?;
+    let (prep, choice) = choose(scene, cfg)?;
+    let (occluder, failure) = prep.occluder(backends.occlusion);
+    let ctx = match &occluder {
+        Some(o) => prep.transfer()?.with_occluder(o.as_ref()),
+        None => prep.transfer()?,
+    };
+    let patches = &prep.patches.patches;
+    let params = prep.refine_params(choice.eps);
+    let mut stats = Statistics {
+        time_setup: prep.setup_time(),
+        device_failure: failure,
+        ..Statistics::default()
+    };
+    let mut rounds = Vec::new();
+    let t_ref = Instant::now();
+    let bright0 = |k: &NodeKey| brightness(None, patches, k);
+    let (mut links, counts) = hierarchy::refine_all(&ctx, &params, &bright0);
+    stats.refined_links += counts.refined;
+    stats.oracle_evals += counts.oracle_evals;
+    stats.nonstandard_links = counts.refined + counts.unrefined_roots;
+    stats.time_refine += t_ref.elapsed();
+    let mut refined = counts.refined;
+    let mut split_time = t_ref.elapsed();
+    let mut prev: Option<Solution> = None;
+    let mut cache = EstimateCache::new();
+    let mut closure_cache = crate::closure::ClosureCache::new();
+    let face_target = cfg.face_target.unwrap_or(cfg.target);
+    for round in 0..cfg.max_rounds {
+        let (t_ref0, t_sol0) = (stats.time_refine, stats.time_solve);
+        stats.stages = round + 1;
+        let sol = solve_links(
+            &prep,
+            &ctx,
+            &links,
+            prev.as_ref(),
+            &mut stats,
+            choice.tolerance,
+            backends.matvec,
+            &mut closure_cache,
+            None,
+        )?;
+        let est = estimate_cached(&ctx, &sol, &cfg.estimate, &mut cache)?;
+        let times = (
+            split_time + (stats.time_refine - t_ref0),
+            stats.time_solve - t_sol0,
+        );
+        rounds.push(Round::of(round, &sol, &est, refined, times, cfg));
+        let faces = est.face_errors(cfg.face_channels);
+        let global_ok = est.relative_l1 <= cfg.target;
+        let faces_ok = faces.iter().all(|&f| f <= face_target);
+        let last = round + 1 == cfg.max_rounds;
+        let marked = if global_ok && faces_ok {
+            None
+        } else {
+            Some(mark(&ctx, &params, &sol, &est, cfg, &faces, !global_ok))
+        };
+        let (all, marked) = match marked {
+            Some((all, marked)) if marked.iter().any(|&m| m) && !last => (all, marked),
+            _ => {
+                let reached = global_ok && faces_ok;
+                let stop_reason = stop_reason(cfg, &est, &faces, &params, reached, last);
+                return Ok(TargetOutcome {
+                    solution: with_escape(sol, &prep),
+                    estimate: est,
+                    choice,
+                    rounds,
+                    reached,
+                    stop_reason,
+                });
+            }
+        };
+        let t = Instant::now();
+        let (new_links, counts): (Vec<LinkRec>, _) =
+            hierarchy::split_marked(&ctx, &params, all, &marked);
+        links = new_links;
+        refined = counts.refined;
+        stats.refined_links += counts.refined;
+        split_time = t.elapsed();
+        stats.time_refine += split_time;
+        prev = Some(sol);
+    }
+    Err(SolverError::InvalidConfig {
+        field: "max_rounds",
+        value: cfg.max_rounds.to_string(),
+        reason: "must be >= 1",
+    })
+}
+
+/// The prepared scene of a target loop, with the basis, the initial threshold and the
+/// linear tolerance chosen (see the module docs).
+fn choose(scene: &Scene, cfg: &TargetConfig) -> Result<(Prepared, Choice), SolverError> {
     let mut scfg = cfg.solver;
     scfg.oracle = Oracle::Brightness;
     scfg.oracle_visibility = true;
@@ -299,7 +400,6 @@ pub fn solve_to_target_on(
     let bbar = mean_reflected(&prep);
     let start = cfg.target.max(INITIAL_ERROR);
     let eps = if bbar > 0.0 { start * bbar } else { start };
-    let tolerance = scfg.tolerance.min(cfg.target * 1e-2);
     let choice = Choice {
         basis,
         basis_reason,
@@ -310,50 +410,24 @@ pub fn solve_to_target_on(
              estimate's rounds refine where the error is",
             cfg.target, bbar
         ),
-        tolerance,
+        tolerance: scfg.tolerance.min(cfg.target * 1e-2),
     };
-    let (occluder, failure) = prep.occluder(backends.occlusion);
-    let ctx = match &occluder {
-        Some(o) => prep.transfer()?.with_occluder(o.as_ref()),
-        None => prep.transfer()?,
-    };
-    let patches = &prep.patches.patches;
-    let params = prep.refine_params(eps);
-    let mut stats = Statistics {
-        time_setup: prep.setup_time(),
-        device_failure: failure,
-        ..Statistics::default()
-    };
-    let mut rounds = Vec::new();
-    let t_ref = Instant::now();
-    let bright0 = |k: &NodeKey| brightness(None, patches, k);
-    let (mut links, counts) = hierarchy::refine_all(&ctx, &params, &bright0);
-    stats.refined_links += counts.refined;
-    stats.oracle_evals += counts.oracle_evals;
-    stats.nonstandard_links = counts.refined + counts.unrefined_roots;
-    stats.time_refine += t_ref.elapsed();
-    let mut refined = counts.refined;
-    let mut split_time = t_ref.elapsed();
-    let mut prev: Option<Solution> = None;
-    let mut cache = EstimateCache::new();
-    let mut closure_cache = crate::closure::ClosureCache::new();
-    for round in 0..cfg.max_rounds {
-        let (t_ref0, t_sol0) = (stats.time_refine, stats.time_solve);
-        stats.stages = round + 1;
-        let sol = solve_links(
-            &prep,
-            &ctx,
-            &links,
-            prev.as_ref(),
-            &mut stats,
-            tolerance,
-            backends.matvec,
-            &mut closure_cache,
-            None,
-        )?;
-        let est = estimate_cached(&ctx, &sol, &cfg.estimate, &mut cache)?;
+    Ok((prep, choice))
+}
+
+impl Round {
+    /// The record of round `round`: its solution, estimate, the links split before it
+    /// and the wall times of its refinement and solve.
+    fn of(
+        round: usize,
+        sol: &Solution,
+        est: &ErrorEstimate,
+        refined: u64,
+        (time_refine, time_solve): (Duration, Duration),
+        cfg: &TargetConfig,
+    ) -> Self {
         let den: f64 = est.reflected_l1.iter().sum();
-        rounds.push(Round {
+        Round {
             round,
             links: sol.stats.links,
             leaves: sol.stats.leaves,
@@ -364,101 +438,83 @@ pub fn solve_to_target_on(
             } else {
                 0.0
             },
-            worst_patch: est.worst_patch().unwrap_or((0, 0.0)),
-            time_refine: split_time + (stats.time_refine - t_ref0),
-            time_solve: stats.time_solve - t_sol0,
+            worst_patch: est.worst_face(cfg.face_channels).unwrap_or((0, 0.0)),
+            time_refine,
+            time_solve,
             time_estimate: est.time,
             estimate_rays: est.rays,
             estimate_reused_links: est.reused_links,
-        });
-        let face_target = cfg.face_target.unwrap_or(cfg.target);
-        let faces = est.patch_relative();
-        let global_ok = est.relative_l1 <= cfg.target;
-        let faces_ok = faces.iter().all(|&f| f <= face_target);
-        if global_ok && faces_ok {
-            let stop_reason = format!(
-                "estimate {:.4} <= target {} and every face's <= {face_target}",
-                est.relative_l1, cfg.target
-            );
-            return Ok(TargetOutcome {
-                solution: with_escape(sol, &prep),
-                estimate: est,
-                choice,
-                rounds,
-                reached: true,
-                stop_reason,
-            });
         }
-        // Mark (Dörfler) among the links that can still be split.
-        let h = &sol.system.h;
-        // Each link's indicator weighted by the importance of its receiver for the
-        // goals not yet met (see `importance`).
-        let weight = importance(&sol, &est, &faces, face_target, !global_ok);
-        let weighted: Vec<f64> = est
-            .link_error
-            .iter()
-            .zip(&h.link_receiver)
-            .map(|(e, &r)| e * weight[r as usize])
-            .collect();
-        // Closure links are rebuilt by every solve: neither marked nor kept.
-        let (all, link_error): (Vec<LinkRec>, Vec<f64>) = h
-            .links()
-            .into_iter()
-            .zip(weighted)
-            .filter(|(l, _)| !crate::closure::is_closure_link(&sol.patches, l))
-            .unzip();
-        let splittable: Vec<bool> = all
-            .iter()
-            .map(|l| {
-                hierarchy::can_split(&ctx, &l.r, &params)
-                    || hierarchy::can_split(&ctx, &l.e, &params)
-            })
-            .collect();
-        let theta = round_bulk(cfg, &est, &faces, face_target);
-        let marked = dorfler(&link_error, &splittable, theta);
-        let last = round + 1 == cfg.max_rounds;
-        if !marked.iter().any(|&m| m) || last {
-            let reason = if last {
-                format!(
-                    "round limit {} reached (estimate {:.4}, worst face {:.4})",
-                    cfg.max_rounds,
-                    est.relative_l1,
-                    faces.iter().fold(0.0f64, |a, &b| a.max(b))
-                )
-            } else {
-                format!(
-                    "no link with error can be split further (estimate {:.4}, worst face {:.4}; \
-                     safety limits: max_level {}, min_area {})",
-                    est.relative_l1,
-                    faces.iter().fold(0.0f64, |a, &b| a.max(b)),
-                    params.max_level,
-                    params.min_area
-                )
-            };
-            return Ok(TargetOutcome {
-                solution: with_escape(sol, &prep),
-                estimate: est,
-                choice,
-                rounds,
-                reached: false,
-                stop_reason: reason,
-            });
-        }
-        let t = Instant::now();
-        let (new_links, counts): (Vec<LinkRec>, _) =
-            hierarchy::split_marked(&ctx, &params, all, &marked);
-        links = new_links;
-        refined = counts.refined;
-        stats.refined_links += counts.refined;
-        split_time = t.elapsed();
-        stats.time_refine += split_time;
-        prev = Some(sol);
     }
-    Err(SolverError::InvalidConfig {
-        field: "max_rounds",
-        value: cfg.max_rounds.to_string(),
-        reason: "must be >= 1",
-    })
+}
+
+/// Dörfler marking of a round whose goals are not all met: the links of `sol`'s
+/// hierarchy other than closure links (rebuilt by every solve: neither marked nor
+/// kept), and which of them to split, among those that can still be split, by
+/// their indicators weighted with the importance of their receivers for the goals
+/// not yet met ([`importance`]; `global`: the scene-wide goal is one of them).
+fn mark(
+    ctx: &crate::TransferCtx<'_>,
+    params: &hierarchy::RefineParams,
+    sol: &Solution,
+    est: &ErrorEstimate,
+    cfg: &TargetConfig,
+    faces: &[f64],
+    global: bool,
+) -> (Vec<LinkRec>, Vec<bool>) {
+    let h = &sol.system.h;
+    let face_target = cfg.face_target.unwrap_or(cfg.target);
+    let weight = importance(sol, est, face_target, global, cfg.face_channels);
+    let weighted: Vec<f64> = est
+        .link_error
+        .iter()
+        .zip(&h.link_receiver)
+        .map(|(e, &r)| e * weight[r as usize])
+        .collect();
+    let (all, link_error): (Vec<LinkRec>, Vec<f64>) = h
+        .links()
+        .into_iter()
+        .zip(weighted)
+        .filter(|(l, _)| !crate::closure::is_closure_link(&sol.patches, l))
+        .unzip();
+    let splittable: Vec<bool> = all
+        .iter()
+        .map(|l| hierarchy::can_split(ctx, &l.r, params) || hierarchy::can_split(ctx, &l.e, params))
+        .collect();
+    let theta = round_bulk(cfg, est, faces, face_target);
+    let marked = dorfler(&link_error, &splittable, theta);
+    (all, marked)
+}
+
+/// Why the loop stops: the goals `reached`, the round limit (`last`), or no link with
+/// error left to split.
+fn stop_reason(
+    cfg: &TargetConfig,
+    est: &ErrorEstimate,
+    faces: &[f64],
+    params: &hierarchy::RefineParams,
+    reached: bool,
+    last: bool,
+) -> String {
+    let face_target = cfg.face_target.unwrap_or(cfg.target);
+    let worst = faces.iter().fold(0.0f64, |a, &b| a.max(b));
+    if reached {
+        format!(
+            "estimate {:.4} <= target {} and every face's <= {face_target}",
+            est.relative_l1, cfg.target
+        )
+    } else if last {
+        format!(
+            "round limit {} reached (estimate {:.4}, worst face {worst:.4})",
+            cfg.max_rounds, est.relative_l1
+        )
+    } else {
+        format!(
+            "no link with error can be split further (estimate {:.4}, worst face {worst:.4}; \
+             safety limits: max_level {}, min_area {})",
+            est.relative_l1, params.max_level, params.min_area
+        )
+    }
 }
 
 /// Mean importance of every node of `sol`'s hierarchy for the goals not yet met, the
@@ -467,7 +523,9 @@ pub fn solve_to_target_on(
 /// much of it reaches the goals through transport).
 ///
 /// The goal is `J(e) = ∫ w |e|` with `w = 1/D_f` on each patch whose own relative
-/// error misses `face_target` (`D_f` its [`ErrorEstimate::patch_normaliser`]). Since
+/// error misses `face_target` (`D_f` its [`ErrorEstimate::patch_normaliser`]; with
+/// `per_channel`, per channel `c` whose error misses it, `w_c = 1/D_f,c` from
+/// [`ErrorEstimate::patch_normaliser_channels`]). Since
 /// `e = (I − K)⁻¹ r`, `J` weights the residual by the importance `z = (I − Kᵀ)⁻¹ w`,
 /// computed per channel on the leaf bases (`z = w + Kᵀ z`, Neumann iteration: `K` is
 /// contractive; near `ρ = 1` the truncated series only changes the weights) and
@@ -480,28 +538,36 @@ pub fn solve_to_target_on(
 fn importance(
     sol: &Solution,
     est: &ErrorEstimate,
-    faces: &[f64],
     face_target: f64,
     global: bool,
+    per_channel: bool,
 ) -> Vec<f64> {
     let sys = &sol.system;
     let h = &sys.h;
     let n = h.n;
     let den: f64 = est.reflected_l1.iter().sum();
     let base = if global && den > 0.0 { 1.0 / den } else { 0.0 };
-    let patch_w: Vec<f64> = est
-        .patch_normaliser()
-        .iter()
-        .zip(faces)
-        .map(|(&dp, &f)| {
-            if f > face_target && dp > 0.0 {
-                1.0 / dp
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    if patch_w.iter().all(|&w| w == 0.0) {
+    let goal = |dp: f64, f: f64| {
+        if f > face_target && dp > 0.0 {
+            1.0 / dp
+        } else {
+            0.0
+        }
+    };
+    let patch_w: Vec<[f64; 3]> = if per_channel {
+        est.patch_normaliser_channels()
+            .iter()
+            .zip(est.patch_relative_channels())
+            .map(|(dp, f)| std::array::from_fn(|c| goal(dp[c], f[c])))
+            .collect()
+    } else {
+        est.patch_normaliser()
+            .iter()
+            .zip(est.patch_relative())
+            .map(|(&dp, f)| [goal(dp, f); 3])
+            .collect()
+    };
+    if patch_w.iter().flatten().all(|&w| w == 0.0) {
         return vec![base; h.node_count()];
     }
     let nodes = h.node_count();
@@ -511,7 +577,7 @@ fn importance(
         let mut wv = vec![0.0; sys.dim()];
         for (l, &leaf) in h.leaves.iter().enumerate() {
             let p = h.keys[leaf as usize].patch as usize;
-            wv[l * n] = patch_w[p] * sys.node_area[leaf as usize].sqrt();
+            wv[l * n] = patch_w[p][c] * sys.node_area[leaf as usize].sqrt();
         }
         let mut z = wv.clone();
         let mut kz = vec![0.0; sys.dim()];

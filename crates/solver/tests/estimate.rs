@@ -354,6 +354,19 @@ fn per_face_parts_add_up_to_the_whole() {
     assert_eq!(faces[worst], rel);
     assert!(faces.iter().all(|&f| f >= 0.0 && f <= rel));
     assert!(rel > 0.0);
+    // Channel by channel: the parts add up to the summed ones, and a face's goal with
+    // `per_channel` is its worst channel's relative error.
+    let channels = est.patch_relative_channels();
+    for (p, pc) in est.patch_channels.iter().enumerate() {
+        let sum = |k: usize| pc[k].iter().sum::<f64>();
+        assert!(close(sum(0), est.patch_error[p]), "patch {p}");
+        assert!(close(sum(1), est.patch_reflected[p]), "patch {p}");
+        assert!(close(sum(2), est.patch_emitted[p]), "patch {p}");
+        let worst_channel = channels[p].iter().fold(0.0f64, |a, &b| a.max(b));
+        assert_eq!(est.face_errors(true)[p], worst_channel);
+    }
+    assert_eq!(est.face_errors(false), faces);
+    assert_eq!(est.worst_face(false), Some((worst, rel)));
 }
 
 /// Bad options and configurations are typed errors naming the field.

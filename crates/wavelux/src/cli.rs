@@ -176,6 +176,12 @@ pub struct SolveArgs {
     /// face at 3 % in about a third of the CPU of every face at 2 % (1.10 %).
     #[arg(long, value_parser = parse_face_target)]
     pub face_target: Option<f64>,
+    /// With a target error (given or the default): judge each face's goal by its worst
+    /// channel, as the `cornell-faces` reproduction judges a face's mean, instead of
+    /// with its three channels summed (the default), where a coloured face's dim
+    /// channel weighs little
+    #[arg(long)]
+    pub face_channels: bool,
     /// With a target error (given or the default): the visibility of the error
     /// estimate's fine gather on partly visible links: `N` (1..=8) shoots, per
     /// residual point, one ray to the centre of each of N × N cells of the link's

@@ -113,6 +113,7 @@ pub fn plan(a: &SolveArgs) -> anyhow::Result<Box<dyn Method>> {
     }
     for (given, flag) in [
         (a.face_target.is_some(), "--face-target"),
+        (a.face_channels, "--face-channels"),
         (a.estimate_visibility.is_some(), "--estimate-visibility"),
     ] {
         if given {

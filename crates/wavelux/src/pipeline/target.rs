@@ -71,6 +71,7 @@ pub fn plan(a: &SolveArgs, target: f64) -> anyhow::Result<Box<dyn Method>> {
         target,
         basis: a.basis.map(basis_kind),
         face_target: a.face_target,
+        face_channels: a.face_channels,
         ..TargetConfig::default()
     };
     cfg.solver.max_level = a.max_level.unwrap_or(MAX_LEVEL);
@@ -98,7 +99,10 @@ fn report_of(
     out: &TargetOutcome,
 ) -> report::TargetReport {
     let den: f64 = out.estimate.reflected_l1.iter().sum();
-    let (worst, worst_est) = out.estimate.worst_patch().unwrap_or((0, 0.0));
+    let (worst, worst_est) = out
+        .estimate
+        .worst_face(cfg.face_channels)
+        .unwrap_or((0, 0.0));
     let worst_face = out.solution.patches.get(worst).map_or(String::new(), |p| {
         let name = &scene.surfaces[p.surface].name;
         if p.side == wavelux::solver::Side::Back {
