@@ -586,8 +586,10 @@ impl Fine<'_> {
         let n = self.ctx.basis().n();
         let mut acc = [0.0; 16];
         let (mut seen, mut hidden) = (false, false);
-        let piece = pieces.sampled(self, call, id);
-        for (k, s) in piece.samples.iter().enumerate() {
+        pieces.sample(self, call, id);
+        let piece = &pieces.items[id];
+        let (k0, k1) = (piece.samples.0 as usize, piece.samples.1 as usize);
+        for (k, s) in pieces.samples[k0..k1].iter().enumerate() {
             tally.evals += 1;
             let g = kernel(pt.x, pt.n, s.y, s.ny);
             if g == 0.0 {
@@ -611,7 +613,7 @@ impl Fine<'_> {
                 tally.visible += 1;
                 seen = true;
             }
-            let fv = &piece.f[k * n..][..n];
+            let fv = &pieces.f[(k0 + k) * n..][..n];
             match piece.emit {
                 Emit::Moments => {
                     let f = s.w * g * piece.scale;
@@ -773,12 +775,10 @@ struct Piece<'s> {
     children: [u32; 4],
     /// Whether the shaft test lets rays through (once asked).
     open: Option<bool>,
-    /// Samples with non-zero weight (once the piece is integrated).
-    samples: Vec<Sample>,
+    /// Its samples with non-zero weight, `Pieces::samples[a..b]` (once the piece is
+    /// integrated).
+    samples: (u32, u32),
     sampled: bool,
-    /// Per sample, the `n` functions `ψ_b` of the emitter node ([`Emit::Moments`]) or
-    /// of the piece's node ([`Emit::Values`]).
-    f: Vec<f64>,
     /// [`Emit::Moments`]: `1/√A_en`; [`Emit::Values`]: `√A` of the piece's node.
     scale: f64,
     /// Where the piece's moments go in a point's output: `0` ([`Emit::Moments`]), or
@@ -794,6 +794,11 @@ struct Piece<'s> {
 /// the same.
 struct Pieces<'s> {
     items: Vec<Piece<'s>>,
+    /// Every piece's samples, contiguous per piece ([`Piece::samples`]).
+    samples: Vec<Sample>,
+    /// Per sample, the `n` functions `ψ_b` of the emitter node ([`Emit::Moments`]) or
+    /// of the piece's node ([`Emit::Values`]).
+    f: Vec<f64>,
     /// [`Emit::Values`]: the hierarchy nodes the pieces lie in, in the order first
     /// met, and whether a piece lay strictly inside the node (a leaf then: see
     /// [`Finer`]).
@@ -804,7 +809,9 @@ impl<'s> Pieces<'s> {
     /// The pieces with the emitter node as the root (index 0).
     fn new(call: &Call<'_>, emit: Emit<'s>) -> Self {
         let mut p = Self {
-            items: Vec::new(),
+            items: Vec::with_capacity(16),
+            samples: Vec::with_capacity(64),
+            f: Vec::with_capacity(64 * 9),
             nodes: Vec::new(),
         };
         p.push(call, call.en, emit);
@@ -847,9 +854,8 @@ impl<'s> Pieces<'s> {
             radius,
             children: [u32::MAX; 4],
             open: None,
-            samples: Vec::new(),
+            samples: (0, 0),
             sampled: false,
-            f: Vec::new(),
             scale: 0.0,
             slot,
         });
@@ -880,19 +886,27 @@ impl<'s> Pieces<'s> {
         })
     }
 
-    /// Piece `id` with its samples and emitter functions.
-    fn sampled(&mut self, fine: &Fine<'_>, call: &Call<'_>, id: usize) -> &Piece<'s> {
-        let p = &mut self.items[id];
-        if !p.sampled {
+    /// Gives piece `id` its samples and emitter functions (once).
+    fn sample(&mut self, fine: &Fine<'_>, call: &Call<'_>, id: usize) {
+        if !self.items[id].sampled {
+            let a = self.samples.len() as u32;
+            let p = &mut self.items[id];
             p.sampled = true;
-            sample_piece(fine, call, p);
+            sample_piece(fine, call, p, &mut self.samples, &mut self.f);
+            p.samples = (a, self.samples.len() as u32);
         }
-        &self.items[id]
     }
 }
 
-/// Fills the samples and emitter functions of a piece (see [`Piece`]).
-fn sample_piece(fine: &Fine<'_>, call: &Call<'_>, p: &mut Piece<'_>) {
+/// Fills the scale of a piece and appends its samples and emitter functions (see
+/// [`Piece`], [`Pieces`]).
+fn sample_piece(
+    fine: &Fine<'_>,
+    call: &Call<'_>,
+    p: &mut Piece<'_>,
+    samples: &mut Vec<Sample>,
+    f: &mut Vec<f64>,
+) {
     let basis = fine.ctx.basis();
     let n = basis.n();
     let (gx, gw, gc) = (&fine.rule.0, &fine.rule.1, &fine.rule.2);
@@ -916,7 +930,7 @@ fn sample_piece(fine: &Fine<'_>, call: &Call<'_>, p: &mut Piece<'_>) {
             } else {
                 y
             };
-            p.samples.push(Sample {
+            samples.push(Sample {
                 uv: (u, v),
                 y,
                 ny,
@@ -928,7 +942,7 @@ fn sample_piece(fine: &Fine<'_>, call: &Call<'_>, p: &mut Piece<'_>) {
                 Emit::Values { sol, node } => sol.system.h.keys[node as usize].region(),
             };
             basis.eval((u - fr.s0) / fr.h, (v - fr.t0) / fr.h, &mut phi[..n]);
-            p.f.extend_from_slice(&phi[..n]);
+            f.extend_from_slice(&phi[..n]);
         }
     }
 }
