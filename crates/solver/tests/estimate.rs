@@ -229,6 +229,23 @@ fn estimate_is_independent_of_the_thread_count() {
     assert_eq!(a.rays, b.rays);
 }
 
+/// `scene` prepared and solved with the M2 basis at `level` and `eps` (the cache tests'
+/// setting).
+fn solved_m2(scene: &Scene, level: u8, eps: f64) -> (Prepared, Solution) {
+    let prep = Prepared::new(scene, &config(BasisKind::Multiwavelet(2), level, eps)).unwrap();
+    let sol = solve_prepared(&prep).unwrap();
+    (prep, sol)
+}
+
+/// Two estimates are the same bit for bit in their total and their per-channel,
+/// per-leaf and per-link parts.
+fn same_estimate(a: &wavelux_solver::ErrorEstimate, b: &wavelux_solver::ErrorEstimate) {
+    assert_eq!(a.relative_l1.to_bits(), b.relative_l1.to_bits());
+    assert_eq!(a.error_l1, b.error_l1);
+    assert_eq!(a.leaf_error, b.leaf_error);
+    assert_eq!(a.link_error, b.link_error);
+}
+
 /// The cache of link transport between calls changes nothing but the cost: a second
 /// call on the same solution reuses every link and shoots no ray, and a refined
 /// solution of the same scene estimated with the coarse one's cache gets exactly
@@ -237,25 +254,15 @@ fn estimate_is_independent_of_the_thread_count() {
 fn cached_estimate_equals_a_fresh_one() {
     let scene = builtin("ziegler-occluded").unwrap();
     let opts = EstimateOptions::default();
-    let solved = |level: u8, eps: f64| {
-        let prep = Prepared::new(&scene, &config(BasisKind::Multiwavelet(2), level, eps)).unwrap();
-        let sol = solve_prepared(&prep).unwrap();
-        (prep, sol)
-    };
-    let same = |a: &wavelux_solver::ErrorEstimate, b: &wavelux_solver::ErrorEstimate| {
-        assert_eq!(a.relative_l1.to_bits(), b.relative_l1.to_bits());
-        assert_eq!(a.error_l1, b.error_l1);
-        assert_eq!(a.leaf_error, b.leaf_error);
-        assert_eq!(a.link_error, b.link_error);
-    };
+    let solved = |level, eps| solved_m2(&scene, level, eps);
     let mut cache = EstimateCache::new();
     let (prep, sol) = solved(1, 1e-2);
     let ctx = prep.transfer().unwrap();
     let fresh = estimate(&ctx, &sol, &opts).unwrap();
     let first = estimate_cached(&ctx, &sol, &opts, &mut cache).unwrap();
     let again = estimate_cached(&ctx, &sol, &opts, &mut cache).unwrap();
-    same(&fresh, &first);
-    same(&fresh, &again);
+    same_estimate(&fresh, &first);
+    same_estimate(&fresh, &again);
     assert!(fresh.rays > 0);
     assert_eq!(first.reused_links, 0);
     assert_eq!(
@@ -268,7 +275,7 @@ fn cached_estimate_equals_a_fresh_one() {
     let ctx2 = prep2.transfer().unwrap();
     let fresh = estimate(&ctx2, &fine, &opts).unwrap();
     let reused = estimate_cached(&ctx2, &fine, &opts, &mut cache).unwrap();
-    same(&fresh, &reused);
+    same_estimate(&fresh, &reused);
     assert!(reused.reused_links > 0, "the two hierarchies share links");
     assert!(reused.rays < fresh.rays);
     // Other options empty the cache.
@@ -289,22 +296,13 @@ fn cached_estimate_equals_a_fresh_one() {
 fn finer_moments_are_reused_while_their_nodes_hold() {
     let scene = builtin("cornell-box").unwrap();
     let opts = EstimateOptions::default();
-    let solved = |level: u8, eps: f64| {
-        let prep = Prepared::new(&scene, &config(BasisKind::Multiwavelet(2), level, eps)).unwrap();
-        let sol = solve_prepared(&prep).unwrap();
-        (prep, sol)
-    };
-    let same = |a: &wavelux_solver::ErrorEstimate, b: &wavelux_solver::ErrorEstimate| {
-        assert_eq!(a.relative_l1.to_bits(), b.relative_l1.to_bits());
-        assert_eq!(a.leaf_error, b.leaf_error);
-        assert_eq!(a.link_error, b.link_error);
-    };
+    let solved = |level, eps| solved_m2(&scene, level, eps);
     let mut cache = EstimateCache::new();
     let (prep, sol) = solved(1, 1e-2);
     let ctx = prep.transfer().unwrap();
     let first = estimate_cached(&ctx, &sol, &opts, &mut cache).unwrap();
     let again = estimate_cached(&ctx, &sol, &opts, &mut cache).unwrap();
-    same(&first, &again);
+    same_estimate(&first, &again);
     assert_eq!(first.reused_finer, 0);
     assert!(again.reused_finer > 0, "no finer moments to reuse");
     assert_eq!((again.stale_finer, again.rays), (0, 0));
@@ -312,7 +310,7 @@ fn finer_moments_are_reused_while_their_nodes_hold() {
     let ctx2 = prep2.transfer().unwrap();
     let fresh = estimate(&ctx2, &fine, &opts).unwrap();
     let reused = estimate_cached(&ctx2, &fine, &opts, &mut cache).unwrap();
-    same(&fresh, &reused);
+    same_estimate(&fresh, &reused);
     assert!(
         reused.reused_finer > 0 && reused.stale_finer > 0,
         "finer reused {}, stale {}",
