@@ -866,7 +866,9 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             Tolerance::AtMost(1.0 + allowance),
         )
         .comment(format!(
-            "errors per round: importance {e_on:.4?}, none {e_off:.4?}; ≤ 1 + 2 × noise              {noise:.4} / V⁰ error {:.4}: each error is measured against the same noisy              reference and may be off by its noise",
+            "errors per round: importance {e_on:.4?}, none {e_off:.4?}; ≤ 1 + 2 × noise \
+             {noise:.4} / V⁰ error {:.4}: each error is measured against the same noisy \
+             reference and may be off by its noise",
             e_on[0]
         )),
     );
