@@ -6,17 +6,16 @@
 //! final gather (Glossy §5.5) per pixel after the `V⁰` solve for the three sender
 //! choices (all senders, linked senders, root links only).
 //!
-//! Times are the CPU time of the bench process (`wavelux_benches::cpu_time::CpuTime`,
-//! shared with the workspace's benches), not wall time: on the shared machine a wall
-//! clock counts the time other processes held the cores.
+//! Times are the CPU time of the bench process ([`CpuTime`]), not wall time: on the
+//! shared machine a wall clock counts the time other processes held the cores.
 #![allow(missing_docs)] // reason: criterion's macros generate undocumented items
 
+use criterion::measurement::{Measurement, ValueFormatter, WallTime};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::{DVec2, DVec3};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 use std::hint::black_box;
-use wavelux_benches::cpu_time::{CpuTime, cpu_time};
 use wavelux_glossy::basis::NodeKey;
 use wavelux_glossy::solve::solve;
 use wavelux_glossy::transport::{End, Transport};
@@ -28,6 +27,54 @@ use wavelux_scene::builtin::cornell_box;
 use wavelux_scene::{Rgb, WardParams};
 
 const N: usize = 4096;
+
+/// CPU time (ns) of this process's living threads: the sum of the first field of
+/// `/proc/self/task/*/schedstat` (Linux; each thread's time on a CPU). The scheduler
+/// brings the running thread's count up to date only at a tick or a switch, so a read
+/// first yields (`sched_yield` updates it); without that a sample shorter than a tick
+/// could read zero. Values are nanoseconds, shown by criterion's duration formatter.
+struct CpuTime {
+    wall: WallTime,
+}
+
+impl CpuTime {
+    fn now() -> u64 {
+        std::thread::yield_now();
+        let tasks = std::fs::read_dir("/proc/self/task").expect("Linux /proc/self/task");
+        tasks
+            .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
+            .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
+            .sum()
+    }
+}
+
+impl Measurement for CpuTime {
+    type Intermediate = u64;
+    type Value = u64;
+
+    fn start(&self) -> u64 {
+        Self::now()
+    }
+    fn end(&self, start: u64) -> u64 {
+        Self::now().saturating_sub(start)
+    }
+    fn add(&self, a: &u64, b: &u64) -> u64 {
+        a + b
+    }
+    fn zero(&self) -> u64 {
+        0
+    }
+    fn to_f64(&self, ns: &u64) -> f64 {
+        *ns as f64
+    }
+    fn formatter(&self) -> &dyn ValueFormatter {
+        self.wall.formatter()
+    }
+}
+
+fn cpu_time() -> Criterion<CpuTime> {
+    Criterion::default().with_measurement(CpuTime { wall: WallTime })
+}
 
 /// `N` random upper-hemisphere direction pairs and `N` uniform sample pairs.
 fn inputs() -> (Vec<(DVec3, DVec3)>, Vec<[f64; 2]>) {
