@@ -851,11 +851,10 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
     );
     let e_off = off.curve.points.iter().map(|p| p[3]).collect::<Vec<_>>();
     let e_on = on.curve.points.iter().map(|p| p[3]).collect::<Vec<_>>();
-    // Both errors are measured against the same noisy reference r = t + n: for any
-    // image s, | Σ|s − r| − Σ|s − t| | ≤ Σ|n| (triangle inequality), so the measured
-    // errors of the two images may each be off by the reference noise N and their
-    // difference by 2N. A measured ratio above 1 shows that refinement made the image
-    // worse only beyond 1 + 2N/e(V⁰) (registered in session 29, before a rerun).
+    // Both errors are measured against the same noisy reference, so each may be off by
+    // its noise N; the comment reports 2N/e(V⁰) for context. The row keeps the
+    // tolerance it was registered with (≤ 1): an allowance added after the row missed
+    // would be a band chosen after the fact (review of session 29).
     let allowance = 2.0 * noise / e_on[0];
     r.rows.push(
         Row::new(
@@ -863,13 +862,11 @@ pub fn run(ctx: &Ctx) -> anyhow::Result<Report> {
             None,
             e_on[e_on.len() - 1] / e_on[0],
             "",
-            Tolerance::AtMost(1.0 + allowance),
+            Tolerance::AtMost(1.0),
         )
         .comment(format!(
-            "errors per round: importance {e_on:.4?}, none {e_off:.4?}; ≤ 1 + 2 × noise \
-             {noise:.4} / V⁰ error {:.4}: each error is measured against the same noisy \
-             reference and may be off by its noise",
-            e_on[0]
+            "errors per round: importance {e_on:.4?}, none {e_off:.4?}; reference noise \
+             {noise:.4}, 2 × noise / V⁰ error = {allowance:.4} (context, not a band)"
         )),
     );
     let e_star = off.curve.best().max(on.curve.best());
